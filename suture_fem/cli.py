@@ -1,0 +1,149 @@
+"""The ``suture-fem`` command line.
+
+    suture-fem run SCENE [--set KEY=VALUE ...] [--out DIR] [--fields]
+    suture-fem mesh SCENE [--set KEY=VALUE ...] [--out FILE.msh]
+    suture-fem scenes                      list the built-in scenes
+    suture-fem show SCENE [--set ...]      print the fully resolved scene as JSON
+
+Exit codes: 0 success, 2 bad scene or arguments, 3 a solve that stopped with a diagnosis.
+Under mpirun every rank runs the same command; logs and files come from rank 0 only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+from typing import Any
+
+from suture_fem.errors import SutureFemError
+
+
+class _RankFilter(logging.Filter):
+    def __init__(self, rank: int):
+        super().__init__()
+        self.rank = rank
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return self.rank == 0
+
+
+def setup_logging(comm: Any, verbose: bool = False) -> None:
+    logger = logging.getLogger("suture_fem")
+    logger.handlers.clear()
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("suture-fem: %(message)s"))
+    handler.addFilter(_RankFilter(comm.rank))
+    logger.addHandler(handler)
+    logger.setLevel(logging.DEBUG if verbose else logging.INFO)
+    logger.propagate = False
+    quiet_compiler_logs()
+
+
+def quiet_compiler_logs() -> None:
+    """Keep the C compiler's chatter (setuptools/distutils, run by FFCx's JIT) off the terminal.
+
+    setuptools installs a root handler at import and distutils lowers the root level on every
+    compile, so the root handlers themselves are raised to WARNING.
+    """
+    import setuptools  # noqa: F401  (installs its root handler now, so it can be quietened)
+
+    for handler in logging.getLogger().handlers:
+        handler.setLevel(logging.WARNING)
+
+
+def _scene_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scene", help="a scene TOML file or the name of a built-in scene (see `suture-fem scenes`)")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scene key by its dotted name, e.g. --set geometry.cones=2 (repeatable)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="suture-fem", description=__doc__.split("\n\n")[0])
+    parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("run", help="solve a scene and write DIR/results.json")
+    _scene_args(p)
+    p.add_argument("--out", default=None, help="output folder (default: results/<scene name>)")
+    p.add_argument("--fields", action="store_true", help="also write XDMF fields (same as --set output.fields=true)")
+
+    p = sub.add_parser("mesh", help="write a scene's mesh as a gmsh .msh file (mm) with a JSON record")
+    _scene_args(p)
+    p.add_argument("--out", default=None, help="output .msh path (default: meshes/<scene name>.msh)")
+
+    sub.add_parser("scenes", help="list the built-in scenes")
+    p = sub.add_parser("show", help="print the fully resolved scene as JSON")
+    _scene_args(p)
+    return parser
+
+
+def _scene_name(source: str) -> str:
+    return Path(source).stem if source.endswith(".toml") else source
+
+
+def main(argv: list[str] | None = None) -> int:
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD  # the command line is the one place that picks the communicator
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    setup_logging(comm, args.verbose)
+    try:
+        return _dispatch(args, comm)
+    except SutureFemError as exc:
+        if comm.rank == 0:
+            print(f"suture-fem: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+
+
+def _dispatch(args: argparse.Namespace, comm: Any) -> int:
+    from suture_fem import scene as scenes
+
+    if args.command == "scenes":
+        if comm.rank == 0:
+            print("\n".join(scenes.builtin_names()))
+        return 0
+    overrides = list(args.overrides)
+    if args.command == "run" and args.fields:
+        overrides.append("output.fields=true")
+    scene = scenes.load_scene(args.scene, overrides)
+    if args.command == "show":
+        if comm.rank == 0:
+            print(json.dumps(scene, indent=2))
+        return 0
+    if args.command == "mesh":
+        from suture_fem.mesh import write_msh
+
+        path = Path(args.out or f"meshes/{_scene_name(args.scene)}.msh")
+        if comm.rank == 0:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            record = write_msh(scene, path)
+            print(f"suture-fem: wrote {path} ({record['triangles']} triangles) and {path.with_suffix('.json')}")
+        return 0
+    if args.command == "run":
+        from suture_fem.run import run_scene
+
+        out = Path(args.out or f"results/{_scene_name(args.scene)}")
+        results = run_scene(scene, out, comm)
+        if comm.rank == 0:
+            print(_summary(results, out))
+        return 0
+    raise AssertionError(args.command)
+
+
+def _summary(results: dict[str, Any], out: Path) -> str:
+    lines = [f"suture-fem: results in {out / 'results.json'}"]
+    for rec in results["at_forces"]:
+        lines.append(
+            f"  F = {rec['force_n']:.3g} N: USUM = {rec['usum_mm']:.4g} mm, SEQV = {rec['seqv_pa']:.4g} Pa, "
+            f"EPTOEQV = {rec['eptoeqv']:.4g}, thread end {rec['thread_end_displacement_mm']:.4g} mm, "
+            f"reaction {rec['reaction_force_n']:.6g} N"
+        )
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,155 @@
+"""Every difference between the dolfinx / gmsh / petsc4py versions we run on, in one place.
+
+Written against Debian bookworm (dolfinx 0.5.2, ufl 2022.2, petsc4py 3.18, gmsh 4.8). The newer
+spellings (dolfinx >= 0.7 / 0.9, gmsh >= 4.11) are selected by feature tests, so supporting Debian
+trixie's dolfinx 0.9 stays a change to this module only.
+"""
+
+from __future__ import annotations
+
+import inspect
+from typing import Any
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import dolfinx.io
+import numpy as np
+
+try:  # dolfinx 0.5-0.6 ship gmshio as a submodule that must be imported explicitly
+    from dolfinx.io import gmshio as _gmshio
+except ImportError:  # pragma: no cover
+    _gmshio = dolfinx.io.gmshio
+
+DOLFINX_VERSION: str = dolfinx.__version__
+_V = tuple(int(p) for p in DOLFINX_VERSION.split(".")[:2])
+
+try:
+    import gmsh as _gmsh
+
+    GMSH_HAS_INTERRUPTIBLE = "interruptible" in inspect.signature(_gmsh.initialize).parameters
+except ImportError:  # pragma: no cover
+    GMSH_HAS_INTERRUPTIBLE = False
+
+
+def vector_space(mesh: Any, degree: int) -> Any:
+    """Continuous Lagrange space of 2-vectors."""
+    if hasattr(dolfinx.fem, "VectorFunctionSpace"):
+        return dolfinx.fem.VectorFunctionSpace(mesh, ("Lagrange", degree))
+    return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))  # pragma: no cover
+
+
+def scalar_space(mesh: Any, family: str, degree: int) -> Any:
+    """Scalar space of a family ("Lagrange", "DG")."""
+    if hasattr(dolfinx.fem, "FunctionSpace") and _V < (0, 8):
+        return dolfinx.fem.FunctionSpace(mesh, (family, degree))
+    return dolfinx.fem.functionspace(mesh, (family, degree))  # pragma: no cover
+
+
+def mixed_space(mesh: Any, degree_u: int, degree_p: int) -> Any:
+    """Taylor-Hood-type space [P_k]^2 x P_{k-1} (displacement, pressure)."""
+    import ufl
+
+    if _V < (0, 7):
+        ve = ufl.VectorElement("Lagrange", mesh.ufl_cell(), degree_u)
+        pe = ufl.FiniteElement("Lagrange", mesh.ufl_cell(), degree_p)
+        return dolfinx.fem.FunctionSpace(mesh, ufl.MixedElement([ve, pe]))
+    import basix.ufl  # pragma: no cover
+
+    ve = basix.ufl.element("Lagrange", mesh.basix_cell(), degree_u, shape=(2,))  # pragma: no cover
+    pe = basix.ufl.element("Lagrange", mesh.basix_cell(), degree_p)  # pragma: no cover
+    return dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element([ve, pe]))  # pragma: no cover
+
+
+def function_vector(u: Any) -> Any:
+    """The PETSc vector behind a Function."""
+    return u.vector if hasattr(u, "vector") and not callable(getattr(u, "vector")) else u.x.petsc_vec
+
+
+def gmsh_model_to_mesh(model: Any, comm: Any, rank: int, gdim: int) -> tuple[Any, Any, Any]:
+    """(mesh, cell_tags, facet_tags) from a gmsh model held on ``rank``."""
+    out = _gmshio.model_to_mesh(model, comm, rank, gdim=gdim)
+    return out[0], out[1], out[2]
+
+
+def gmsh_set_distance_sampling(field_tag: int, n: int) -> None:
+    """Points per curve of a gmsh Distance field (renamed "Sampling" in gmsh 4.11)."""
+    import gmsh
+
+    try:
+        gmsh.model.mesh.field.setNumber(field_tag, "Sampling", n)
+    except Exception:
+        gmsh.model.mesh.field.setNumber(field_tag, "NumPointsPerCurve", n)
+
+
+def quadrature_points(cell: str, degree: int) -> np.ndarray:
+    """Reference quadrature points of a rule exact to ``degree`` on a triangle."""
+    import basix
+
+    pts, _ = basix.make_quadrature(basix.CellType.triangle, degree)
+    return pts
+
+
+def expression(expr: Any, points: np.ndarray) -> Any:
+    """A compiled dolfinx Expression at reference points."""
+    return dolfinx.fem.Expression(expr, points)
+
+
+def eval_expression(compiled: Any, mesh: Any, cells: np.ndarray) -> np.ndarray:
+    """Evaluate an Expression on local cells: array (num_cells, num_points * value_size)."""
+    if _V < (0, 7):
+        return compiled.eval(cells)
+    return compiled.eval(mesh, cells)  # pragma: no cover
+
+
+def create_xdmf(comm: Any, path: str) -> Any:
+    return dolfinx.io.XDMFFile(comm, path, "w")
+
+
+def set_function_domain_error(snes: Any) -> bool:
+    """Tell SNES the last function evaluation left the admissible domain, where petsc4py can.
+
+    petsc4py 3.18 (Debian bookworm) has no ``SNES.setFunctionDomainError``; there the residual
+    callback marks the state inadmissible by returning an infinite residual norm instead, which the
+    backtracking line search treats as a failed trial and shortens the step (see solver.py).
+    Returns True when the PETSc call was made.
+    """
+    fn = getattr(snes, "setFunctionDomainError", None)
+    if fn is None:
+        return False
+    fn()  # pragma: no cover (petsc4py >= 3.19)
+    return True
+
+
+_gmsh_started_here = False
+
+
+class gmsh_session:
+    """Context manager: gmsh initialised for the block (and finalised only if it started it here).
+
+    gmsh 4.8 has no ``gmsh.isInitialized``; newer versions do.
+    """
+
+    def __enter__(self) -> Any:
+        import gmsh
+
+        global _gmsh_started_here
+        is_init = getattr(gmsh, "isInitialized", None)
+        running = bool(is_init()) if is_init is not None else _gmsh_started_here
+        self.owner = not running
+        if self.owner:
+            if GMSH_HAS_INTERRUPTIBLE:
+                gmsh.initialize(interruptible=False)  # pragma: no cover (gmsh >= 4.10)
+            else:
+                gmsh.initialize()
+            _gmsh_started_here = True
+        gmsh.option.setNumber("General.Terminal", 0)
+        return gmsh
+
+    def __exit__(self, *exc: Any) -> None:
+        import gmsh
+
+        global _gmsh_started_here
+        if self.owner:
+            gmsh.finalize()
+            _gmsh_started_here = False

@@ -1,0 +1,204 @@
+"""Geometry of the axisymmetric half-section, derived from a scene (pure Python, no gmsh).
+
+Coordinates are (r, z) in millimetres; the thread lies on the axis r = 0. The tissue cylinder spans
+z in [0, L]; the far tissue face is z = 0 and the pulled end is at the top: the thread leaves the
+tissue at z = L and ends at z = L + thread_free_length, where the force acts along +z.
+
+Cone i (i = 0 nearest the far end) has its base at z = margin_far + i * spacing when the apex
+points toward the pulled end (the default); the cone span is (n - 1) * spacing + height.
+
+A hollow cone is the frustum shell between the outer conical surface and a parallel inner surface
+one wall thickness inside it (measured normal to the wall), closed at the apex by a flat cap of the
+same thickness and open at the base; its inside is hypodermis. A full cone is the solid frustum.
+Both sit on the thread surface r = r_t.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from suture_fem.errors import SceneError
+
+Point = tuple[float, float]
+#: ("line", (p, q)) or ("arc", (p, centre, q)): one piece of a closed outline.
+Segment = tuple[str, tuple[Point, ...]]
+
+#: Smallest gap (mm) the geometry accepts between two surfaces (below it the mesh degenerates).
+MIN_GAP_MM = 5e-3
+
+
+@dataclass(frozen=True)
+class Cone:
+    """One cone: its closed outline (counter-clockwise not guaranteed) and its corner points."""
+
+    base_z: float
+    apex_z: float
+    outline: list[Segment]
+    corners: list[Point]
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """All dimensions (mm) of the half-section.
+
+    Attributes:
+        r_thread: thread radius.
+        r_hypodermis, r_dermis, r_epidermis: outer radii of the three tissue layers.
+        length: tissue length L.
+        z_end: axial position of the thread's pulled end face.
+        cones: the cones, far end first.
+    """
+
+    r_thread: float
+    r_hypodermis: float
+    r_dermis: float
+    r_epidermis: float
+    length: float
+    z_end: float
+    cones: list[Cone] = field(default_factory=list)
+    kind: str = "hollow"
+
+    @property
+    def corners(self) -> list[Point]:
+        """Every cone corner off the thread (where the stress is singular when sharp)."""
+        return [p for c in self.cones for p in c.corners]
+
+    @classmethod
+    def from_scene(cls, scene: dict[str, Any]) -> "Geometry":
+        """Build the geometry, rejecting dimensions that do not fit (SceneError names the keys)."""
+        g = scene["geometry"]
+        n, h = g["cones"], g["cone_height_mm"]
+        r_t = g["thread_radius_mm"]
+        r_base, r_top = g["cone_base_diameter_mm"] / 2, g["cone_top_diameter_mm"] / 2
+        r_h = g["hypodermis_mm"]
+        if n > 0:
+            if r_top <= r_t + MIN_GAP_MM:
+                raise SceneError(
+                    "scene key geometry.cone_top_diameter_mm must exceed the thread diameter "
+                    f"2 * geometry.thread_radius_mm = {2 * r_t:g} mm, got {2 * r_top:g} mm"
+                )
+            if r_base < r_top:
+                raise SceneError(
+                    "scene key geometry.cone_base_diameter_mm must be >= geometry.cone_top_diameter_mm "
+                    f"({2 * r_top:g} mm), got {2 * r_base:g} mm"
+                )
+            if r_base >= r_h - MIN_GAP_MM:
+                raise SceneError(
+                    "cones do not fit inside the hypodermis: geometry.cone_base_diameter_mm / 2 = "
+                    f"{r_base:g} mm must be < geometry.hypodermis_mm = {r_h:g} mm"
+                )
+        if r_t >= r_h - MIN_GAP_MM:
+            raise SceneError(
+                f"scene key geometry.thread_radius_mm = {r_t:g} must be < geometry.hypodermis_mm = {r_h:g}"
+            )
+        if n > 1 and g["cone_spacing_mm"] <= h + MIN_GAP_MM:
+            raise SceneError(
+                "cones overlap: geometry.cone_spacing_mm (base to base) must be > geometry.cone_height_mm "
+                f"= {h:g} mm, got {g['cone_spacing_mm']:g} mm"
+            )
+        span = (n - 1) * g["cone_spacing_mm"] + h if n > 0 else 0.0
+        length = g["margin_far_mm"] + span + g["margin_pull_mm"]
+        cones = []
+        for i in range(n):
+            z_lo = g["margin_far_mm"] + i * g["cone_spacing_mm"]
+            cones.append(_cone(g, z_lo, r_t, r_base, r_top))
+        return cls(
+            r_thread=r_t,
+            r_hypodermis=r_h,
+            r_dermis=r_h + g["dermis_mm"],
+            r_epidermis=r_h + g["dermis_mm"] + g["epidermis_mm"],
+            length=length,
+            z_end=length + g["thread_free_length_mm"],
+            cones=cones,
+            kind=g["cone_kind"],
+        )
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-ready summary of the derived dimensions."""
+        return {
+            "tissue_length_mm": self.length,
+            "thread_end_z_mm": self.z_end,
+            "layer_outer_radii_mm": [self.r_hypodermis, self.r_dermis, self.r_epidermis],
+            "cones": [{"base_z_mm": c.base_z, "apex_z_mm": c.apex_z} for c in self.cones],
+            "corners_mm": [list(p) for p in self.corners],
+        }
+
+
+def _cone(g: dict[str, Any], z_lo: float, r_t: float, r_base: float, r_top: float) -> Cone:
+    """Outline of one cone with its base at z_lo (apex up); mirrored when the base faces the pull."""
+    h, wall, fillet = g["cone_height_mm"], g["cone_wall_mm"], g["cone_fillet_mm"]
+    tan_a = (r_base - r_top) / h  # half-angle of the cone
+    w = wall * math.sqrt(1.0 + tan_a**2)  # horizontal width of a wall of normal thickness `wall`
+    z_b, z_a = z_lo, z_lo + h
+    if g["cone_kind"] == "full":
+        pts = [(r_t, z_a), (r_top, z_a), (r_base, z_b), (r_t, z_b)]
+        fillet_at = {2}
+        corners = [(r_top, z_a), (r_base, z_b)]
+    else:
+        z_c = z_a - wall  # underside of the apex cap
+        r_cavity_top = r_top + tan_a * wall - w
+        if wall >= h - MIN_GAP_MM or r_cavity_top <= r_t + MIN_GAP_MM or r_base - w <= r_t + MIN_GAP_MM:
+            raise SceneError(
+                f"scene key geometry.cone_wall_mm = {wall:g} leaves no hollow inside the cone (the wall "
+                f"must be thinner than the gap between the thread, r = {r_t:g} mm, and the cone's outer "
+                "surface near its top); use a thinner wall or geometry.cone_kind = \"full\""
+            )
+        pts = [(r_t, z_a), (r_top, z_a), (r_base, z_b), (r_base - w, z_b), (r_cavity_top, z_c), (r_t, z_c)]
+        fillet_at = {2, 3}
+        corners = [(r_top, z_a), (r_base, z_b), (r_base - w, z_b), (r_cavity_top, z_c)]
+    base_z, apex_z = z_b, z_a
+    if g["cone_orientation"] == "base_to_pull":
+        base_z, apex_z = z_a, z_b
+        mid = z_b + z_a
+        pts = [(r, mid - z) for r, z in pts]
+        corners = [(r, mid - z) for r, z in corners]
+    outline = _outline(pts, fillet_at if fillet > 0 else set(), fillet)
+    return Cone(base_z=base_z, apex_z=apex_z, outline=outline, corners=corners)
+
+
+def _outline(pts: list[Point], fillet_at: set[int], radius: float) -> list[Segment]:
+    """Closed polyline through pts, with a circular fillet of `radius` at the vertices in fillet_at."""
+    n = len(pts)
+    starts: list[Point] = list(pts)
+    ends: list[Point] = list(pts)
+    arcs: dict[int, tuple[Point, Point, Point]] = {}
+    for i in fillet_at:
+        p, prev, nxt = pts[i], pts[i - 1], pts[(i + 1) % n]
+        u = _unit(prev, p)
+        v = _unit(nxt, p)
+        cos_t = max(-1.0, min(1.0, u[0] * v[0] + u[1] * v[1]))
+        theta = math.acos(cos_t)
+        t = radius / math.tan(theta / 2)  # distance from the corner to each tangent point
+        max_t = 0.45 * min(_dist(p, prev), _dist(p, nxt))
+        if t > max_t:
+            limit = max_t * math.tan(theta / 2)
+            raise SceneError(
+                f"scene key geometry.cone_fillet_mm = {radius:g} is too large for the cone's rim: "
+                f"allowed range 0 to {limit:.4g} mm for this cone"
+            )
+        a = (p[0] + t * u[0], p[1] + t * u[1])
+        b = (p[0] + t * v[0], p[1] + t * v[1])
+        bis = _unit((p[0] + u[0] + v[0], p[1] + u[1] + v[1]), p)
+        d = radius / math.sin(theta / 2)
+        c = (p[0] + d * bis[0], p[1] + d * bis[1])
+        arcs[i] = (a, c, b)
+        ends[i], starts[i] = a, b  # the edge into vertex i ends at a; the edge out starts at b
+    segments: list[Segment] = []
+    for i in range(n):
+        j = (i + 1) % n
+        segments.append(("line", (starts[i], ends[j])))
+        if j in arcs:
+            segments.append(("arc", arcs[j]))
+    return segments
+
+
+def _unit(q: Point, p: Point) -> Point:
+    dx, dy = q[0] - p[0], q[1] - p[1]
+    norm = math.hypot(dx, dy)
+    return dx / norm, dy / norm
+
+
+def _dist(p: Point, q: Point) -> float:
+    return math.hypot(p[0] - q[0], p[1] - q[1])

@@ -1,0 +1,110 @@
+"""The pipeline of one scene: scene -> mesh -> physics -> load ramp -> outputs -> results.json.
+
+``results.json`` is rewritten (atomically) after every converged load step, so a run that stops
+later keeps everything it had computed; its ``status`` says "running", "converged" or "stopped".
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+from suture_fem import __version__, compat
+from suture_fem import mesh as meshmod
+from suture_fem.errors import SolveStopped
+from suture_fem.io import write_json
+from suture_fem.outputs import FieldWriter, Outputs
+from suture_fem.physics import build_physics
+from suture_fem.solver import Timings, ramp
+
+log = logging.getLogger("suture_fem")
+
+HOLD_NOTE = (
+    "hold at the peak force not solved: the scene is quasi-static and every material is "
+    "rate-independent, so the state at the end of the hold equals the state at the peak"
+)
+
+
+def run_scene(scene: dict[str, Any], out_dir: str | Path | None, comm: Any) -> dict[str, Any]:
+    """Solve a validated scene; write ``out_dir/results.json`` (rank 0) and return the results.
+
+    Raises SolveStopped after writing the converged part when the ramp cannot be completed.
+    """
+    t_start = time.perf_counter()
+    out = Path(out_dir) if out_dir is not None else None
+    timings = Timings()
+    t0 = time.perf_counter()
+    tagged = meshmod.create_mesh(comm, scene)
+    meshing = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    physics = build_physics(tagged, scene)
+    outputs = Outputs(physics, scene)
+    timings.form_compilation += time.perf_counter() - t0
+    results: dict[str, Any] = {
+        "status": "running",
+        "suture_fem_version": __version__,
+        "dolfinx_version": compat.DOLFINX_VERSION,
+        "mpi_ranks": comm.size,
+        "dofs": physics.num_dofs(),
+        **meshmod.describe(tagged),
+        "applied_force_n": scene["loading"]["force_n"],
+        "force_displacement": [[0.0, 0.0]],
+        "at_forces": [],
+        "hold": HOLD_NOTE,
+        "scene": scene,
+    }
+    writer = FieldWriter(physics, outputs, str(out / "fields.xdmf")) if out and scene["output"]["fields"] else None
+
+    def save() -> None:
+        results["wall_time_s"] = time.perf_counter() - t_start
+        results["timings_s"] = {"meshing": round(meshing, 4), **timings.as_dict()}
+        if out is not None and comm.rank == 0:
+            write_json(out / "results.json", results)
+
+    def on_converged(force_n: float, report: bool) -> None:
+        results["force_displacement"].append([force_n, outputs.thread_end_displacement_mm()])
+        if report:
+            record = outputs.evaluate()
+            results["at_forces"].append(record)
+            results.update({k: v for k, v in record.items() if k != "force_n"})
+            results["force_reached_n"] = force_n
+            if writer is not None:
+                writer.write(force_n)
+        save()
+
+    try:
+        history = ramp(physics, scene, on_converged, timings)
+    except SolveStopped as stop:
+        results["status"] = "stopped"
+        results["diagnosis"] = {
+            "cause": stop.cause,
+            "load_reached_n": stop.load_reached,
+            "attempted_n": stop.attempted,
+            "detail": stop.detail,
+        }
+        if stop.load_reached > 0 and (not results["at_forces"] or results["at_forces"][-1]["force_n"] < stop.load_reached):
+            record = outputs.evaluate()  # the last converged state, so its fields are not lost
+            results["at_forces"].append(record)
+            results.update({k: v for k, v in record.items() if k != "force_n"})
+            results["force_reached_n"] = stop.load_reached
+            if writer is not None:
+                writer.write(stop.load_reached)
+        save()
+        raise
+    finally:
+        if writer is not None:
+            writer.close()
+    results.update(
+        {
+            "status": "converged",
+            "load_steps": len(history.steps),
+            "newton_iterations": history.newton_iterations,
+            "cutbacks": history.cutbacks,
+            "linear_solver": history.linear_solver,
+            "linear_solver_fallbacks": history.fallbacks,
+        }
+    )
+    save()
+    return results

@@ -27,6 +27,13 @@ class SolveStopped(SutureFemError, RuntimeError):
 
     def __init__(self, cause: str, load_reached: float, attempted: float, detail: str):
         self.cause, self.load_reached, self.attempted, self.detail = cause, load_reached, attempted, detail
+        self.history = None  # the solver's RampResult up to the stop, when known
         super().__init__(
             f"solve stopped ({cause}) at {attempted:.6g} N; last converged load {load_reached:.6g} N: {detail}"
         )
+
+    @classmethod
+    def with_history(cls, history, **kwargs) -> "SolveStopped":
+        stop = cls(**kwargs)
+        stop.history = history
+        return stop

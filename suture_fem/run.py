@@ -74,9 +74,22 @@ def run_scene(scene: dict[str, Any], out_dir: str | Path | None, comm: Any) -> d
                 writer.write(force_n)
         save()
 
+    def bookkeeping(history: Any) -> None:
+        results.update(
+            {
+                "load_steps": len(history.steps),
+                "newton_iterations": history.newton_iterations,
+                "cutbacks": history.cutbacks,
+                "linear_solver": history.linear_solver,
+                "linear_solver_fallbacks": history.fallbacks,
+            }
+        )
+
     try:
         history = ramp(physics, scene, on_converged, timings)
     except SolveStopped as stop:
+        if stop.history is not None:
+            bookkeeping(stop.history)
         results["status"] = "stopped"
         results["diagnosis"] = {
             "cause": stop.cause,
@@ -96,15 +109,7 @@ def run_scene(scene: dict[str, Any], out_dir: str | Path | None, comm: Any) -> d
     finally:
         if writer is not None:
             writer.close()
-    results.update(
-        {
-            "status": "converged",
-            "load_steps": len(history.steps),
-            "newton_iterations": history.newton_iterations,
-            "cutbacks": history.cutbacks,
-            "linear_solver": history.linear_solver,
-            "linear_solver_fallbacks": history.fallbacks,
-        }
-    )
+    bookkeeping(history)
+    results["status"] = "converged"
     save()
     return results

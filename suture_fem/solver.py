@@ -332,7 +332,7 @@ def ramp(
             why = _diagnose(newton, reason, its)
             log.warning("step to F = %.4f N failed (%s); cutting the step to %.3g", trial * f_max, why, step)
             if step < o["min_step"]:
-                raise SolveStopped(
+                raise SolveStopped.with_history(result,
                     cause=_cause(newton, reason),
                     load_reached=lam * f_max,
                     attempted=trial * f_max,

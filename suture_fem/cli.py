@@ -12,6 +12,7 @@ Under mpirun every rank runs the same command; logs and files come from rank 0 o
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import logging
 import sys
@@ -19,6 +20,10 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.errors import SutureFemError
+
+#: Modules that add a subcommand: each has ``register(subparsers, scene_args)``, which adds its
+#: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
+COMMAND_MODULES: tuple[str, ...] = ()
 
 
 class _RankFilter(logging.Filter):
@@ -77,6 +82,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("scenes", help="list the built-in scenes")
     p = sub.add_parser("show", help="print the fully resolved scene as JSON")
     _scene_args(p)
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(sub, _scene_args)
     return parser
 
 
@@ -102,6 +109,8 @@ def main(argv: list[str] | None = None) -> int:
 def _dispatch(args: argparse.Namespace, comm: Any) -> int:
     from suture_fem import scene as scenes
 
+    if getattr(args, "handler", None) is not None:
+        return args.handler(args, comm)
     if args.command == "scenes":
         if comm.rank == 0:
             print("\n".join(scenes.builtin_names()))

@@ -15,6 +15,8 @@ take part with -inf.
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
 from typing import Any
 
 import dolfinx.fem
@@ -220,7 +222,14 @@ class FieldWriter:
     def __init__(self, physics: Physics, outputs: Outputs, path: str):
         self.physics, self.outputs = physics, outputs
         mesh = physics.mesh
-        self.file = compat.create_xdmf(mesh.comm, path)
+        # Written into a hidden folder and moved beside results.json on close, so the .xdmf/.h5 pair
+        # is complete or absent (the .xdmf names its .h5 by a relative path, which the move keeps).
+        self.final = Path(path)
+        self.staging = self.final.parent / f".{self.final.stem}.partial"
+        if mesh.comm.rank == 0:
+            self.staging.mkdir(parents=True, exist_ok=True)
+        mesh.comm.barrier()
+        self.file = compat.create_xdmf(mesh.comm, str(self.staging / self.final.name))
         self.file.write_mesh(mesh)
         self.u1 = dolfinx.fem.Function(compat.vector_space(mesh, 1), name="displacement_m")
         self.vm = dolfinx.fem.Function(compat.scalar_space(mesh, "DG", 0), name="von_mises_pa")
@@ -242,3 +251,10 @@ class FieldWriter:
 
     def close(self) -> None:
         self.file.close()
+        comm = self.physics.comm
+        comm.barrier()
+        if comm.rank == 0:
+            for f in self.staging.iterdir():
+                os.replace(f, self.final.parent / f.name)
+            self.staging.rmdir()
+        comm.barrier()

@@ -9,7 +9,7 @@ from __future__ import annotations
 import logging
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from suture_fem import __version__, compat
 from suture_fem import mesh as meshmod
@@ -27,9 +27,16 @@ HOLD_NOTE = (
 )
 
 
-def run_scene(scene: dict[str, Any], out_dir: str | Path | None, comm: Any) -> dict[str, Any]:
+def run_scene(
+    scene: dict[str, Any],
+    out_dir: str | Path | None,
+    comm: Any,
+    on_report: Callable[[float, Any], None] | None = None,
+) -> dict[str, Any]:
     """Solve a validated scene; write ``out_dir/results.json`` (rank 0) and return the results.
 
+    ``on_report(force_n, physics)``, if given, is called (on every rank) at each reported force with
+    the physics in that state, e.g. to keep ``physics.u`` for a picture.
     Raises SolveStopped after writing the converged part when the ramp cannot be completed.
     """
     t_start = time.perf_counter()
@@ -72,6 +79,8 @@ def run_scene(scene: dict[str, Any], out_dir: str | Path | None, comm: Any) -> d
             results["force_reached_n"] = force_n
             if writer is not None:
                 writer.write(force_n)
+            if on_report is not None:
+                on_report(force_n, physics)
         save()
 
     def bookkeeping(history: Any) -> None:
@@ -104,6 +113,8 @@ def run_scene(scene: dict[str, Any], out_dir: str | Path | None, comm: Any) -> d
             results["force_reached_n"] = stop.load_reached
             if writer is not None:
                 writer.write(stop.load_reached)
+            if on_report is not None:
+                on_report(stop.load_reached, physics)
         save()
         raise
     finally:

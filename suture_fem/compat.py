@@ -102,6 +102,17 @@ def eval_expression(compiled: Any, mesh: Any, cells: np.ndarray) -> np.ndarray:
     return compiled.eval(mesh, cells)  # pragma: no cover
 
 
+def vtk_mesh(space: Any) -> tuple[Any, Any, Any]:
+    """(cells, cell types, points) of a function space's dof grid, for ``pyvista.UnstructuredGrid``.
+
+    ``dolfinx.plot.create_vtk_mesh`` before 0.7, ``dolfinx.plot.vtk_mesh`` from 0.7 on.
+    """
+    import dolfinx.plot
+
+    fn = getattr(dolfinx.plot, "vtk_mesh", None) or dolfinx.plot.create_vtk_mesh
+    return fn(space)
+
+
 def create_xdmf(comm: Any, path: str) -> Any:
     return dolfinx.io.XDMFFile(comm, path, "w")
 

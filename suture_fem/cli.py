@@ -104,6 +104,16 @@ def main(argv: list[str] | None = None) -> int:
         if comm.rank == 0:
             print(f"suture-fem: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except Exception:
+        if comm.size == 1:
+            raise
+        # Raised on this rank only: the others may wait in a collective call forever. End them all.
+        import traceback
+
+        print(f"suture-fem: unexpected error on rank {comm.rank}; aborting all ranks\n{traceback.format_exc()}",
+              file=sys.stderr, flush=True)
+        comm.Abort(1)
+        raise
 
 
 def _dispatch(args: argparse.Namespace, comm: Any) -> int:

@@ -19,6 +19,7 @@ import numpy as np
 
 from suture_fem import compat
 from suture_fem.geometry import Geometry
+from suture_fem.parallel import on_root
 
 # Cell tags
 HYPODERMIS, DERMIS, EPIDERMIS, THREAD, CONE = 1, 2, 3, 4, 5
@@ -208,11 +209,12 @@ def create_mesh(comm: Any, scene: dict[str, Any]) -> TaggedMesh:
     if comm.rank == 0:
         with compat.gmsh_session() as gmsh:
             try:
-                build_gmsh_model(geometry, sizes)
+                on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes)
                 mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
             finally:
                 gmsh.model.remove()
     else:
+        on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes)  # rank 0's outcome, on every rank
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.geometry.x[:, :2] *= MM
     return TaggedMesh(mesh, cell_tags, facet_tags, geometry, sizes)

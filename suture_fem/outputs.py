@@ -29,6 +29,7 @@ from petsc4py import PETSc
 from suture_fem import compat, kinematics
 from suture_fem import mesh as meshmod
 from suture_fem.materials import cauchy
+from suture_fem.parallel import on_root
 from suture_fem.physics import REGION_OF_TAG, Physics, quadrature_degree
 
 #: Regions reported separately (the suture is thread + cones).
@@ -226,9 +227,7 @@ class FieldWriter:
         # is complete or absent (the .xdmf names its .h5 by a relative path, which the move keeps).
         self.final = Path(path)
         self.staging = self.final.parent / f".{self.final.stem}.partial"
-        if mesh.comm.rank == 0:
-            self.staging.mkdir(parents=True, exist_ok=True)
-        mesh.comm.barrier()
+        on_root(mesh.comm, f"creating {self.staging}", self.staging.mkdir, parents=True, exist_ok=True)
         self.file = compat.create_xdmf(mesh.comm, str(self.staging / self.final.name))
         self.file.write_mesh(mesh)
         self.u1 = dolfinx.fem.Function(compat.vector_space(mesh, 1), name="displacement_m")
@@ -253,8 +252,9 @@ class FieldWriter:
         self.file.close()
         comm = self.physics.comm
         comm.barrier()
-        if comm.rank == 0:
-            for f in self.staging.iterdir():
-                os.replace(f, self.final.parent / f.name)
-            self.staging.rmdir()
-        comm.barrier()
+        on_root(comm, f"moving {self.final.name} into place", self._move_into_place)
+
+    def _move_into_place(self) -> None:
+        for f in self.staging.iterdir():
+            os.replace(f, self.final.parent / f.name)
+        self.staging.rmdir()

@@ -16,6 +16,7 @@ from suture_fem import mesh as meshmod
 from suture_fem.errors import SolveStopped
 from suture_fem.io import write_json
 from suture_fem.outputs import FieldWriter, Outputs
+from suture_fem.parallel import on_root
 from suture_fem.physics import build_physics
 from suture_fem.solver import Timings, ramp
 
@@ -41,6 +42,8 @@ def run_scene(
     """
     t_start = time.perf_counter()
     out = Path(out_dir) if out_dir is not None else None
+    if out is not None:  # an unusable output folder stops every rank now, not after the solve
+        on_root(comm, f"creating the output folder {out}", out.mkdir, parents=True, exist_ok=True)
     timings = Timings()
     t0 = time.perf_counter()
     tagged = meshmod.create_mesh(comm, scene)
@@ -67,8 +70,8 @@ def run_scene(
     def save() -> None:
         results["wall_time_s"] = time.perf_counter() - t_start
         results["timings_s"] = {"meshing": round(meshing, 4), **timings.as_dict()}
-        if out is not None and comm.rank == 0:
-            write_json(out / "results.json", results)
+        if out is not None:
+            on_root(comm, f"writing {out / 'results.json'}", write_json, out / "results.json", results)
 
     def on_converged(force_n: float, report: bool) -> None:
         results["force_displacement"].append([force_n, outputs.thread_end_displacement_mm()])

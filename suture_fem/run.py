@@ -36,8 +36,9 @@ def run_scene(
 ) -> dict[str, Any]:
     """Solve a validated scene; write ``out_dir/results.json`` (rank 0) and return the results.
 
-    ``on_report(force_n, physics)``, if given, is called (on every rank) at each reported force with
-    the physics in that state, e.g. to keep ``physics.u`` for a picture.
+    ``on_report(force_n, outputs)``, if given, is called (on every rank) at each reported force with
+    the Outputs of the solved state, for pictures: ``outputs.physics.u`` is the displacement and
+    ``outputs.cell_maxima()`` the von Mises stress and equivalent strain per cell.
     Raises SolveStopped after writing the converged part when the ramp cannot be completed.
     """
     t_start = time.perf_counter()
@@ -83,7 +84,7 @@ def run_scene(
             if writer is not None:
                 writer.write(force_n)
             if on_report is not None:
-                on_report(force_n, physics)
+                on_report(force_n, outputs)
         save()
 
     def bookkeeping(history: Any) -> None:
@@ -117,7 +118,7 @@ def run_scene(
             if writer is not None:
                 writer.write(stop.load_reached)
             if on_report is not None:
-                on_report(stop.load_reached, physics)
+                on_report(stop.load_reached, outputs)
         save()
         raise
     finally:

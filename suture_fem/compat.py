@@ -164,3 +164,11 @@ class gmsh_session:
         if self.owner:
             gmsh.finalize()
             _gmsh_started_here = False
+
+
+def scatter_reverse_add(x: Any) -> None:
+    """Sum the ghost entries of a dolfinx la.Vector onto their owners (ScatterMode in 0.5-0.6, InsertMode after)."""
+    import dolfinx.la
+
+    mode = getattr(dolfinx.la, "ScatterMode", None) or dolfinx.la.InsertMode  # pragma: no branch
+    x.scatter_reverse(mode.add)

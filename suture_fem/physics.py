@@ -1,13 +1,24 @@
-"""Physics: the weak form of a scene, assembled from its regions' materials and its loads.
+"""Physics: the discrete problem of a scene, assembled from the effects it calls for.
 
-The total potential is
+The quasi-static problem is the stationarity of the total potential
 
     Pi(u) = sum_regions  int W_region(F(u)) 2 pi r dr dz  -  int t . u 2 pi r ds_pull
 
 with t = F / (pi r_t^2) e_z on the thread's pulled end face, so that the 2 pi r-weighted integral of t
-over the face is exactly the applied force F. The residual is the Gateaux derivative of Pi and the
-Jacobian its derivative again (UFL), so the tangent is exactly consistent.
+over the face is exactly the applied force F. The residual is the Gateaux derivative of Pi (plus the
+non-potential terms of the called effects: the pressure equation of the mixed formulation, inertia,
+damping) and the Jacobian its derivative again (UFL), so the tangent is exactly consistent.
 Outer epidermis surface: u = 0. Axis: u_r = 0. Everything else traction-free.
+
+Which terms exist is decided by :mod:`suture_fem.effects`: an effect a scene leaves off is never
+built (``Physics.terms`` names what was built, ``Physics.left_out`` what was not and why).
+
+Unknowns. ``state`` is the unknown Function: the displacement, or (mixed) displacement and pressure.
+``u`` is always the displacement alone (a view of ``state`` in the mixed case, kept in sync by
+:meth:`Physics.sync`), so outputs and the domain guard never see the pressure. What SNES solves for is
+``T x`` (:class:`Unknowns`): every dof that is not fixed by a boundary condition, except that with a
+rigid suture all of the suture's dofs are replaced by one axial motion d (u = (0, d) on every suture
+node, the interface included) and its equation is the axial force balance of the suture.
 """
 
 from __future__ import annotations
@@ -24,6 +35,16 @@ from petsc4py import PETSc
 
 from suture_fem import compat, kinematics
 from suture_fem import mesh as meshmod
+from suture_fem.effects import (
+    Dynamics,
+    Effects,
+    FormContext,
+    Terms,
+    elastic_terms,
+    gravity_term,
+    mark_dofs,
+    pull_term,
+)
 from suture_fem.materials import Material, from_params
 
 #: Cell tag -> scene material region.
@@ -35,6 +56,8 @@ REGION_OF_TAG = {
     meshmod.CONE: "suture",
 }
 
+FREE, FIXED, RIGID = 0, 1, 2
+
 
 def quadrature_degree(degree: int) -> int:
     """Quadrature degree for the (non-polynomial) hyperelastic integrands of a degree-k field."""
@@ -42,24 +65,51 @@ def quadrature_degree(degree: int) -> int:
 
 
 @dataclass
+class Unknowns:
+    """Which local dofs of the state SNES solves for: FREE ones, FIXED (= 0) ones, RIGID (= d) ones.
+
+    ``kind`` covers owned and ghost dofs of the state's space (unrolled); with a rigid suture the
+    axial dofs of every suture node are RIGID and its radial dofs FIXED.
+    """
+
+    kind: np.ndarray
+    n_owned: int
+    rigid: bool
+
+    def count(self, comm: Any) -> int:
+        """Global number of unknowns SNES solves for (free dofs, plus d with a rigid suture)."""
+        free = int(np.count_nonzero(self.kind[: self.n_owned] == FREE))
+        return comm.allreduce(free) + (1 if self.rigid else 0)
+
+
+@dataclass
 class Physics:
-    """The discrete problem of a scene: unknowns, forms, boundary conditions, load parameter.
+    """The discrete problem of a scene: unknowns, forms, boundary conditions, load parameters.
 
     Attributes:
-        tagged: the mesh and its tags.
-        V: displacement space; u: the displacement (the unknown); materials: region -> material.
+        tagged: the mesh and its tags; effects: what the scene calls for.
+        W, state: space of the unknown and the unknown; V, u: displacement space and displacement.
+        materials: region -> material.
         traction: the axial traction on the pulled face (Pa), set by the load stepping.
-        residual, jacobian: UFL forms; bcs: Dirichlet conditions.
-        energy: UFL form of the total strain energy (J).
-        end_displacement: UFL form of the 2 pi r-weighted integral of u_z over the pulled face.
+        gravity_factor: 0..1 multiplier of the weight (None without gravity).
+        terms: residual contributions by effect (UFL forms); residual, jacobian: their sum and its derivative.
+        bcs: Dirichlet conditions (zero values), in W.
+        energy: strain energy (J); end_displacement: 2 pi r-weighted integral of u_z over the pulled face.
+        unknowns: what SNES solves for; dynamics: time integration (None without inertia).
+        left_out: what the scene does not call for, and why.
     """
 
     tagged: meshmod.TaggedMesh
     degree: int
+    effects: Effects
+    W: Any
+    state: Any
     V: Any
     u: Any
     materials: dict[str, Material]
     traction: Any
+    gravity_factor: Any
+    terms: dict[str, Any]
     residual: Any
     jacobian: Any
     bcs: list[Any]
@@ -70,7 +120,12 @@ class Physics:
     dx: Any
     x: Any
     F: Any
+    unknowns: Unknowns
+    dynamics: Dynamics | None = None
+    u_in_state: np.ndarray | None = None
+    rigid_displacement: Any = None
     left_out: dict[str, str] = field(default_factory=dict)
+    notes: dict[str, dict[str, Any]] = field(default_factory=dict)
     _compiled: dict[str, Any] = field(default_factory=dict, repr=False)
 
     def form(self, name: str) -> Any:
@@ -78,6 +133,10 @@ class Physics:
         if name not in self._compiled:
             self._compiled[name] = dolfinx.fem.form(getattr(self, name))
         return self._compiled[name]
+
+    def compiled(self) -> list[str]:
+        """Names of the forms compiled so far."""
+        return list(self._compiled)
 
     @property
     def mesh(self) -> Any:
@@ -94,73 +153,193 @@ class Physics:
     def set_force(self, force_n: float) -> None:
         self.traction.value = self.traction_for(force_n)
 
+    def sync(self) -> None:
+        """Copy the displacement part of the state into ``u`` (mixed formulation; no-op otherwise)."""
+        if self.u_in_state is not None:
+            self.u.x.array[:] = self.state.x.array[self.u_in_state]
+
     def num_dofs(self) -> int:
-        im = self.V.dofmap.index_map
-        return int(im.size_global * self.V.dofmap.index_map_bs)
+        """Size of the state's space (every mesh unknown, suture and pressure included)."""
+        im = self.W.dofmap.index_map
+        return int(im.size_global * self.W.dofmap.index_map_bs)
+
+    def effects_record(self) -> dict[str, Any]:
+        """The ``effects`` record of results.json: each effect on or off, why, and its numbers."""
+        return self.effects.record(self.notes)
+
+    def num_unknowns(self) -> int:
+        """Number of unknowns SNES actually solves for."""
+        return self.unknowns.count(self.comm)
 
     def region_tags(self, region: str) -> tuple[int, ...]:
         return tuple(t for t, r in REGION_OF_TAG.items() if r == region)
 
 
 def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
-    """Forms and boundary conditions of a scene on a mesh."""
+    """Forms, boundary conditions and unknowns of a scene on a mesh, with only the called effects."""
+    effects = Effects.from_scene(scene)
     mesh = tagged.mesh
     degree = scene["mesh"]["degree"]
-    V = compat.vector_space(mesh, degree)
-    u = dolfinx.fem.Function(V, name="displacement")
-    v = ufl.TestFunction(V)
-    du = ufl.TrialFunction(V)
+    if effects.mixed:
+        W = compat.mixed_space(mesh, degree, degree - 1)
+        W_u = W.sub(0)
+        V, u_in_state = W_u.collapse()
+        u = dolfinx.fem.Function(V, name="displacement")
+        state = dolfinx.fem.Function(W, name="state")
+    else:
+        W = V = W_u = compat.vector_space(mesh, degree)
+        u = state = dolfinx.fem.Function(V, name="displacement")
+        u_in_state = None
+    test = ufl.TestFunction(W)
     x = ufl.SpatialCoordinate(mesh)
-    F = kinematics.deformation_gradient(u, x)
     weight = kinematics.volume_weight(x)
     q = quadrature_degree(degree)
     dx = ufl.Measure("dx", domain=mesh, subdomain_data=tagged.cell_tags, metadata={"quadrature_degree": q})
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags, metadata={"quadrature_degree": q})
-
     materials = {region: from_params(scene["materials"][region]) for region in sorted(set(REGION_OF_TAG.values()))}
     present = _present_tags(tagged)
-    energy_density = 0
-    for region, material in materials.items():
+    region_tags = {}
+    for region in ("hypodermis", "dermis", "epidermis", "suture"):
         tags = tuple(t for t, r in REGION_OF_TAG.items() if r == region and t in present)
         if tags:
-            energy_density += material.energy(F) * weight * dx(tags)
+            region_tags[region] = tags
+
+    dynamics = Dynamics(W, scene) if effects.inertia else None
+    w_eval = dynamics.evaluation_state(state) if dynamics is not None else state
+
+    def displacement(w: Any) -> Any:
+        return ufl.as_vector([w[0], w[1]]) if effects.mixed else w
+
+    ctx = FormContext(
+        w=state, u=displacement(w_eval), p=w_eval[2] if effects.mixed else None,
+        v=displacement(test), q=test[2] if effects.mixed else None, test=test,
+        x=x, weight=weight, dx=dx, ds=ds, materials=materials, region_tags=region_tags,
+    )
+    terms = Terms()
+    elastic_terms(ctx, effects, terms)
     traction = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
-    external = traction * kinematics.axial(u) * weight * ds(meshmod.PULL_FACE)
-    potential = energy_density - external
-    residual = ufl.derivative(potential, u, v)
-    jacobian = ufl.derivative(residual, u, du)
+    pull_term(ctx, traction, meshmod.PULL_FACE, terms)
+    gravity_factor = None
+    if effects.gravity:
+        gravity_factor = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
+        gravity_term(ctx, scene, gravity_factor, terms)
+    if dynamics is not None:
+        dynamics.terms(ctx, displacement, effects.rigid, terms)
+
+    potential = sum(terms.potential.values())
+    # with generalized-alpha the static terms sit at w_{n+1-alpha_f}: d/dw of Pi(w_eval) carries 1 - alpha_f
+    scale = 1.0 / (1.0 - dynamics.scheme.alpha_f) if dynamics is not None else 1.0
+    residual = scale * ufl.derivative(potential, state, test) if scale != 1.0 else ufl.derivative(potential, state, test)
+    for form in terms.residual.values():
+        residual = residual + form
+    jacobian = ufl.derivative(residual, state, ufl.TrialFunction(W))
+
+    F = kinematics.deformation_gradient(u, x)
+    energy = sum(materials[r].energy(F) * weight * dx(tags) for r, tags in region_tags.items()
+                 if r != "suture" or not effects.rigid)
 
     fdim = mesh.topology.dim - 1
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)
     outer = meshmod.facets(tagged, meshmod.OUTER)
     axis = meshmod.facets(tagged, meshmod.AXIS)
-    zero2 = np.zeros(2, dtype=PETSc.ScalarType)
-    outer_dofs = dolfinx.fem.locate_dofs_topological(V, fdim, outer)
-    axis_r_dofs = dolfinx.fem.locate_dofs_topological(V.sub(0), fdim, axis)
-    bcs = [
-        dolfinx.fem.dirichletbc(zero2, outer_dofs, V),
-        dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), axis_r_dofs, V.sub(0)),
+    zero = PETSc.ScalarType(0.0)
+    bcs = [  # per component, so the same code serves the vector space and the mixed space's subspace
+        dolfinx.fem.dirichletbc(zero, dolfinx.fem.locate_dofs_topological(W_u.sub(c), fdim, outer), W_u.sub(c))
+        for c in (0, 1)
     ]
-    outer_z = dolfinx.fem.locate_dofs_topological(V.sub(1), fdim, outer)
+    bcs.append(dolfinx.fem.dirichletbc(zero, dolfinx.fem.locate_dofs_topological(W_u.sub(0), fdim, axis), W_u.sub(0)))
+    left_out: dict[str, str] = {}
+    notes: dict[str, dict[str, Any]] = {}
+    if effects.mixed:
+        # pressure unknowns that touch no tissue cell have no equation: pin them to 0
+        tissue_cells = meshmod.region_cells(tagged, meshmod.TISSUE)
+        in_tissue = mark_dofs(W, tissue_cells, W.sub(1))
+        p_all = mark_dofs(W, np.arange(mesh.topology.index_map(2).size_local, dtype=np.int32), W.sub(1))
+        pinned = np.flatnonzero(p_all & ~in_tissue).astype(np.int32)
+        bcs.append(dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), pinned, W.sub(1)))
+        owned = W.dofmap.index_map.size_local
+        notes["mixed"] = {
+            "pressure_dofs": mesh.comm.allreduce(int(np.count_nonzero(p_all[:owned]))),
+            "pressure_dofs_pinned_in_suture": mesh.comm.allreduce(int(np.count_nonzero(pinned < owned))),
+        }
+        left_out["suture pressure"] = "the suture keeps its displacement form; its pressure unknowns off the tissue are pinned to 0"
+    outer_z = dolfinx.fem.locate_dofs_topological(W_u.sub(1), fdim, outer)
+    unknowns = _unknowns(W, W_u, bcs, tagged, effects.rigid)
+    rigid_displacement = None
+    if effects.rigid:
+        # The constraint as boundary conditions (u_r = 0, u_z = d on every suture dof), so everything that
+        # reads bcs sees which dofs are constrained; SNES imposes it through Reduction, which updates d.
+        rigid_displacement = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
+        suture_cells = meshmod.region_cells(tagged, meshmod.SUTURE)
+        for comp, value in ((0, PETSc.ScalarType(0.0)), (1, rigid_displacement)):
+            dofs = np.flatnonzero(mark_dofs(W, suture_cells, W_u.sub(comp))).astype(np.int32)
+            bcs.append(dolfinx.fem.dirichletbc(value, dofs, W_u.sub(comp)))
+    if effects.rigid:
+        owned_kind = unknowns.kind[: unknowns.n_owned]
+        notes["suture"] = {
+            "suture_dofs_replaced": mesh.comm.allreduce(int(np.count_nonzero(owned_kind == RIGID))),
+            "rigid_unknowns": 1,
+        }
+        left_out["suture elasticity"] = ("effects.suture = \"rigid\": the suture's strain energy is not built; "
+                                         "its unknowns are replaced by one rigid axial motion")
+    if dynamics is not None:
+        e = scene["effects"]
+        notes["inertia"] = {
+            "time_scheme": e["time_scheme"], "scheme": dynamics.scheme.__dict__, "time_step_s": e["time_step_s"],
+            "rayleigh_mass_per_s": e["rayleigh_mass_per_s"], "rayleigh_stiffness_s": e["rayleigh_stiffness_s"],
+            "densities_kg_m3": dynamics.densities.by_region,
+        }
+    if effects.gravity:
+        notes["gravity"] = {"g_m_s2": scene["effects"]["gravity_m_s2"], "direction": scene["effects"]["gravity_direction"],
+                            "applied": "quasi-statically before the pull"}
+    if not effects.inertia:
+        left_out["inertia"] = "effects.inertia = false: no mass or damping form"
+    if not effects.gravity:
+        left_out["gravity"] = "effects.gravity = false: no body force"
     r_t = tagged.geometry.r_thread * meshmod.MM
     return Physics(
         tagged=tagged,
         degree=degree,
+        effects=effects,
+        W=W,
+        state=state,
         V=V,
         u=u,
         materials=materials,
         traction=traction,
+        gravity_factor=gravity_factor,
+        terms={**terms.potential, **terms.residual},
         residual=residual,
         jacobian=jacobian,
         bcs=bcs,
-        energy=energy_density,
+        energy=energy,
         end_displacement=kinematics.axial(u) * weight * ds(meshmod.PULL_FACE),
         outer_z_dofs=np.asarray(outer_z, dtype=np.int32),
         pull_area=math.pi * r_t**2,
         dx=dx,
         x=x,
         F=F,
+        unknowns=unknowns,
+        dynamics=dynamics,
+        u_in_state=u_in_state,
+        rigid_displacement=rigid_displacement,
+        left_out=left_out,
+        notes=notes,
     )
+
+
+def _unknowns(W: Any, W_u: Any, bcs: list[Any], tagged: meshmod.TaggedMesh, rigid: bool) -> Unknowns:
+    """Classify every local dof of W: fixed by a boundary condition, rigid (suture, when rigid) or free."""
+    im = W.dofmap.index_map
+    bs = W.dofmap.index_map_bs
+    kind = np.full((im.size_local + im.num_ghosts) * bs, FREE, dtype=np.int8)
+    for bc in bcs:
+        kind[bc.dof_indices()[0]] = FIXED
+    if rigid:  # the suture's radial dofs are FIXED (0), its axial dofs follow d
+        suture_cells = meshmod.region_cells(tagged, meshmod.SUTURE)
+        kind[mark_dofs(W, suture_cells, W_u.sub(0))] = FIXED
+        kind[mark_dofs(W, suture_cells, W_u.sub(1))] = RIGID
+    return Unknowns(kind=kind, n_owned=im.size_local * bs, rigid=rigid)
 
 
 def _present_tags(tagged: meshmod.TaggedMesh) -> set[int]:

@@ -22,11 +22,6 @@ from suture_fem.solver import Timings, ramp
 
 log = logging.getLogger("suture_fem")
 
-HOLD_NOTE = (
-    "hold at the peak force not solved: the scene is quasi-static and every material is "
-    "rate-independent, so the state at the end of the hold equals the state at the peak"
-)
-
 
 def run_scene(
     scene: dict[str, Any],
@@ -51,7 +46,7 @@ def run_scene(
     meshing = time.perf_counter() - t0
     t0 = time.perf_counter()
     physics = build_physics(tagged, scene)
-    outputs = Outputs(physics, scene)
+    outputs = Outputs(physics, scene, quantities=physics.effects.quantities)
     timings.form_compilation += time.perf_counter() - t0
     results: dict[str, Any] = {
         "status": "running",
@@ -59,11 +54,12 @@ def run_scene(
         "dolfinx_version": compat.DOLFINX_VERSION,
         "mpi_ranks": comm.size,
         "dofs": physics.num_dofs(),
+        "unknowns": physics.num_unknowns(),
         **meshmod.describe(tagged),
         "applied_force_n": scene["loading"]["force_n"],
         "force_displacement": [[0.0, 0.0]],
         "at_forces": [],
-        "hold": HOLD_NOTE,
+        "effects": physics.effects_record(),
         "scene": scene,
     }
     writer = FieldWriter(physics, outputs, str(out / "fields.xdmf")) if out and scene["output"]["fields"] else None
@@ -74,8 +70,10 @@ def run_scene(
         if out is not None:
             on_root(comm, f"writing {out / 'results.json'}", write_json, out / "results.json", results)
 
-    def on_converged(force_n: float, report: bool) -> None:
+    def on_converged(force_n: float, report: bool, time_s: float | None = None) -> None:
         results["force_displacement"].append([force_n, outputs.thread_end_displacement_mm()])
+        if time_s is not None:  # with inertia: [t (s), F (N), thread end displacement (mm)]
+            results.setdefault("time_history", []).append([time_s, *results["force_displacement"][-1]])
         if report:
             record = outputs.evaluate()
             results["at_forces"].append(record)
@@ -95,6 +93,7 @@ def run_scene(
                 "cutbacks": history.cutbacks,
                 "linear_solver": history.linear_solver,
                 "linear_solver_fallbacks": history.fallbacks,
+                "domain_rejections": history.domain_rejections,
             }
         )
 

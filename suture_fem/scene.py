@@ -31,7 +31,7 @@ class Rule:
     """Type and range of one scene key.
 
     Attributes:
-        kind: "int", "float", "str", "bool", "floats" (list of numbers) or "table".
+        kind: "int", "float", "str", "bool", "floats" (list of numbers), "strs" (list of strings) or "table".
         lo, hi: closed range for numbers (open when ``lo_open``/``hi_open``).
         choices: allowed strings.
     """
@@ -45,7 +45,7 @@ class Rule:
 
     def describe(self) -> str:
         if self.choices:
-            return "one of " + ", ".join(f'"{c}"' for c in self.choices)
+            return ("a list of any of " if self.kind == "strs" else "one of ") + ", ".join(f'"{c}"' for c in self.choices)
         if self.kind in ("int", "float", "floats"):
             noun = {"int": "an integer", "float": "a finite number", "floats": "a list of finite numbers"}[
                 self.kind
@@ -71,6 +71,10 @@ class Rule:
             return value
         if self.kind == "table":
             if not isinstance(value, dict):
+                raise bad
+            return value
+        if self.kind == "strs":
+            if not isinstance(value, list) or any(v not in self.choices for v in value):
                 raise bad
             return value
         if self.kind == "floats":
@@ -139,8 +143,22 @@ RULES: dict[str, Rule] = {
     "solver.atol": _pos(1.0),
     "solver.linear_solver": Rule("str", choices=("mumps", "superlu_dist", "petsc")),
     "solver.petsc_options": Rule("table"),
+    "solver.gent_limit_fraction": Rule("float", lo=0.0, hi=1.0, lo_open=True),
     "output.fields": Rule("bool"),
     "output.rim_exclusion_mm": _pos(100.0, lo_open=False),
+    "output.quantities": Rule("strs", choices=("usum", "seqv", "eptoeqv")),
+    "effects.inertia": Rule("bool"),
+    "effects.suture": Rule("str", choices=("elastic", "rigid")),
+    "effects.incompressibility": Rule("str", choices=("displacement", "mixed")),
+    "effects.gravity": Rule("bool"),
+    **{f"effects.density_{r}_kg_m3": _pos(1e5) for r in ("hypodermis", "dermis", "epidermis", "suture")},
+    "effects.rayleigh_mass_per_s": _pos(1e9, lo_open=False),
+    "effects.rayleigh_stiffness_s": _pos(1.0, lo_open=False),
+    "effects.time_scheme": Rule("str", choices=("newmark", "generalized_alpha")),
+    "effects.spectral_radius": Rule("float", lo=0.0, hi=1.0),
+    "effects.time_step_s": _pos(1e6),
+    "effects.gravity_m_s2": _pos(1e3, lo_open=False),
+    "effects.gravity_direction": Rule("str", choices=("-z", "+z")),
 }
 
 REGIONS = ("hypodermis", "dermis", "epidermis", "suture")
@@ -291,6 +309,9 @@ def validate(scene: dict[str, Any]) -> dict[str, Any]:
     from suture_fem.geometry import Geometry  # the geometric cross-checks, still before meshing
 
     Geometry.from_scene(out)
+    from suture_fem.effects import check_scene  # the effects' cross-checks
+
+    check_scene(out)
     return out
 
 

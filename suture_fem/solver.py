@@ -1,4 +1,9 @@
-"""Solver: PETSc SNES (Newton + backtracking line search, direct LU) driving an adaptive load ramp.
+"""Solver: PETSc SNES (Newton + backtracking line search, direct LU) driving an adaptive load path.
+
+SNES solves for x, the unknowns of :class:`~suture_fem.physics.Unknowns`, with the state u = T x
+(:class:`Reduction`): T injects the free dofs and, with a rigid suture, copies the one rigid axial
+motion d onto every axial suture dof. The residual and Jacobian are T^T R(T x) and T^T A T (PETSc
+PtAP), so the Dirichlet conditions (all zero) and the rigid constraint need no special rows.
 
 Three guards keep hard cases from producing silent wrong numbers:
 
@@ -6,12 +11,18 @@ Three guards keep hard cases from producing silent wrong numbers:
   and, in Gent regions, I1bar - 3 < Jm. A trial state outside that domain is never evaluated into
   NaN: where petsc4py offers ``SNESSetFunctionDomainError`` it is called; on petsc4py 3.18 (which
   has not) the residual is returned as a huge finite vector, so the backtracking line search rejects
-  the trial and shortens the step, and a Newton solve that cannot recover fails cleanly.
+  the trial and shortens the step, and a Newton solve that cannot recover fails cleanly. A converged
+  state is also checked against the physical limit ``solver.gent_limit_fraction``: Gent's energy
+  only blows up at I1bar - 3 = Jm, so "the limit is reached" means (I1bar - 3) / Jm >= that fraction
+  somewhere (a state there is rejected like a failed step).
 * Adaptive load stepping. A step grows when Newton converges in few iterations and is halved and
   retried from the last converged state when it fails; below ``solver.min_step`` the run stops with a
   :class:`~suture_fem.errors.SolveStopped` diagnosis that names the cause.
 * Linear solver fallback. When the LU factorisation fails, the next direct solver of the fallback
   list is tried for the same step, and the switch is logged.
+
+The load path is the load fraction (quasi-static), or time over ramp and hold (with inertia); with
+gravity the weight is applied first, quasi-statically, at zero pull force.
 """
 
 from __future__ import annotations
@@ -30,7 +41,7 @@ from petsc4py import PETSc
 from suture_fem import compat
 from suture_fem import mesh as meshmod
 from suture_fem.errors import SolveStopped
-from suture_fem.physics import REGION_OF_TAG, Physics, quadrature_degree
+from suture_fem.physics import FREE, REGION_OF_TAG, RIGID, Physics, quadrature_degree
 
 log = logging.getLogger("suture_fem")
 
@@ -38,6 +49,7 @@ log = logging.getLogger("suture_fem")
 #: line search can compare it, and larger than any physical residual).
 OUTSIDE_DOMAIN_RESIDUAL = 1e30
 FALLBACK_ORDER = ("mumps", "superlu_dist", "petsc")
+GENT_LIMIT = "Gent limit Jm - (I1bar - 3)"
 
 
 @dataclass
@@ -62,11 +74,12 @@ class DomainGuard:
 
     def __init__(self, physics: Physics):
         self.physics = physics
-        mesh = physics.mesh
         points = compat.quadrature_points("triangle", quadrature_degree(physics.degree))
         self.checks: list[tuple[str, str, Any, np.ndarray]] = []
         self._x = compat.expression(physics.x, points)
         for tag, region in REGION_OF_TAG.items():
+            if region == "suture" and physics.effects.rigid:
+                continue  # a rigid translation cannot invert
             cells = meshmod.region_cells(physics.tagged, tag)
             for name, expr in physics.materials[region].limits(physics.F).items():
                 self.checks.append((region, name, compat.expression(expr, points), cells))
@@ -86,26 +99,112 @@ class DomainGuard:
                 out[(region, name)] = (float(vals.flat[k]), (cells[k // vals.shape[1]], k % vals.shape[1]))
         return out
 
-    def admissible(self) -> bool:
-        """True on every rank when the current state is inside the domain everywhere (collective)."""
-        worst: tuple[float, str, str, Any] | None = None
+    def _worst(self, offending: Callable[[str, str, float], float | None]) -> dict[str, Any] | None:
+        """The most offending point over all ranks (collective); offending() returns a badness or None."""
+        worst: tuple[float, str, str, float, Any] | None = None
         for (region, name), (value, where) in self.margins().items():
-            if not math.isfinite(value) or value <= 0.0:
-                if worst is None or value < worst[0] or not math.isfinite(value):
-                    worst = (value, region, name, where)
+            bad = offending(region, name, value)
+            if bad is not None and (worst is None or bad > worst[0]):
+                worst = (bad, region, name, value, where)
         local = None
         if worst is not None:
-            value, region, name, (cell, ip) = worst
+            bad, region, name, value, (cell, ip) = worst
             xy = compat.eval_expression(self._x, self.physics.mesh, np.array([cell], dtype=np.int32))
             xy = xy.reshape(-1, 2)[ip] / meshmod.MM
-            local = {"region": region, "quantity": name, "value": value, "r_mm": float(xy[0]), "z_mm": float(xy[1])}
+            local = {"region": region, "quantity": name, "value": value, "badness": bad,
+                     "r_mm": float(xy[0]), "z_mm": float(xy[1])}
         found = [v for v in self.physics.comm.allgather(local) if v is not None]
-        self.violation = min(found, key=lambda v: v["value"]) if found else None
+        return max(found, key=lambda v: v["badness"]) if found else None
+
+    def admissible(self) -> bool:
+        """True on every rank when the current state is inside the domain everywhere (collective)."""
+
+        def outside(region: str, name: str, value: float) -> float | None:
+            if not math.isfinite(value):
+                return math.inf
+            return -value if value <= 0.0 else None
+
+        self.violation = self._worst(outside)
         return self.violation is None
+
+    def limit_reached(self, fraction: float) -> dict[str, Any] | None:
+        """Where (I1bar - 3) / Jm >= fraction in a Gent region (collective), else None."""
+
+        def used(region: str, name: str, value: float) -> float | None:
+            if name != GENT_LIMIT:
+                return None
+            usage = 1.0 - value / self.physics.materials[region].jm
+            return usage if usage >= fraction else None
+
+        found = self._worst(used)
+        if found is not None:
+            found["limit"] = f"(I1bar - 3) / Jm = {found['badness']:.4f} >= solver.gent_limit_fraction = {fraction:g}"
+        return found
+
+
+class Reduction:
+    """u = T x between the state's dofs and the unknowns SNES solves for (see the module docstring)."""
+
+    def __init__(self, physics: Physics):
+        comm = physics.comm
+        un = physics.unknowns
+        W = physics.W
+        bs = W.dofmap.index_map_bs
+        im = W.dofmap.index_map
+        kind = un.kind[: un.n_owned]
+        free = np.flatnonzero(kind == FREE)
+        rigid = np.flatnonzero(kind == RIGID)
+        n_free = len(free)
+        offset = comm.exscan(n_free) or 0
+        n_free_global = comm.allreduce(n_free)
+        holds_d = un.rigid and comm.rank == comm.size - 1
+        self.d_owner = comm.size - 1 if un.rigid else None
+        n_cols = n_free + (1 if holds_d else 0)
+        self.n_global = n_free_global + (1 if un.rigid else 0)
+        col = np.full(un.n_owned, -1, dtype=PETSc.IntType)
+        col[free] = offset + np.arange(n_free)
+        col[rigid] = n_free_global  # d is the last unknown
+        has = col >= 0
+        indptr = np.concatenate([[0], np.cumsum(has)]).astype(PETSc.IntType)
+        self.T = PETSc.Mat().createAIJ(
+            size=((un.n_owned, im.size_global * bs), (n_cols, self.n_global)),
+            csr=(indptr, col[has], np.ones(int(has.sum()))),
+            comm=comm,
+        )
+        self.T.assemble()
+        self.counts = self.T.createVecRight()
+        ones = self.T.createVecLeft()
+        ones.set(1.0)
+        self.T.multTranspose(ones, self.counts)
+        ones.destroy()
+        self.physics = physics
+
+    def create_vector(self) -> Any:
+        return self.T.createVecRight()
+
+    def restrict(self, u_vec: Any, x: Any) -> None:
+        """x from a state u that satisfies the constraints (the mean over each column's dofs)."""
+        self.T.multTranspose(u_vec, x)
+        x.pointwiseDivide(x, self.counts)
+
+    def expand(self, x: Any) -> None:
+        """The state u = T x (ghosts updated, displacement view synced)."""
+        u_vec = compat.function_vector(self.physics.state)
+        self.T.mult(x, u_vec)
+        u_vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self.physics.sync()
+        if self.d_owner is not None:  # the rigid suture's axial motion, for its boundary condition
+            comm = self.physics.comm
+            d = x.getArray(readonly=True)[-1] if comm.rank == self.d_owner else None
+            self.physics.rigid_displacement.value = comm.bcast(d, root=self.d_owner)
+
+    def destroy(self) -> None:
+        self.T.destroy()
+        self.counts.destroy()
 
 
 class NewtonSolver:
-    """SNES on the physics' residual and Jacobian, with the domain guard in the residual."""
+    """SNES on T^T R(T x) and T^T A T, with the domain guard in the residual."""
 
     def __init__(self, physics: Physics, solver_options: dict[str, Any], timings: Timings):
         self.physics = physics
@@ -115,9 +214,13 @@ class NewtonSolver:
         self.J_form = physics.form("jacobian")
         self.guard = DomainGuard(physics)
         timings.form_compilation += time.perf_counter() - t0
-        self.b = dolfinx.fem.petsc.create_vector(self.F_form)
-        self.A = dolfinx.fem.petsc.create_matrix(self.J_form)
-        self.x = compat.function_vector(physics.u).copy()
+        self.reduction = Reduction(physics)
+        self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
+        self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
+        self._assemble_full_jacobian()
+        self.A = self.A_full.ptap(self.reduction.T)
+        self.b = self.reduction.create_vector()
+        self.x = self.reduction.create_vector()
         self.outside_domain = 0
         self.last_violation: dict[str, Any] | None = None
         self.options = solver_options
@@ -162,17 +265,15 @@ class NewtonSolver:
         self.linear_solver = rest[0]
         opts = PETSc.Options()
         opts[self.prefix + "pc_factor_mat_solver_type"] = self.linear_solver
-        self.snes.getKSP().getPC().setFactorSolverType(self.linear_solver)
+        pc = self.snes.getKSP().getPC()
+        pc.reset()  # drop the failed factorisation (and its solver type)
+        pc.setType("lu")
+        pc.setFactorSolverType(self.linear_solver)
         self.snes.getKSP().setFromOptions()
         return self.linear_solver
 
-    def _update_state(self, x: Any) -> None:
-        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        x.copy(compat.function_vector(self.physics.u))
-        self.physics.u.x.scatter_forward()
-
     def _residual(self, snes: Any, x: Any, b: Any) -> None:
-        self._update_state(x)
+        self.reduction.expand(x)
         t0 = time.perf_counter()
         ok = self.guard.admissible()
         self.timings.guard += time.perf_counter() - t0
@@ -183,24 +284,27 @@ class NewtonSolver:
                 b.set(OUTSIDE_DOMAIN_RESIDUAL)
             return
         t0 = time.perf_counter()
-        with b.localForm() as b_local:
+        with self.b_full.localForm() as b_local:
             b_local.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(b, self.F_form)
-        dolfinx.fem.petsc.apply_lifting(b, [self.J_form], bcs=[self.physics.bcs], x0=[x], scale=-1.0)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        dolfinx.fem.petsc.set_bc(b, self.physics.bcs, x, -1.0)
+        dolfinx.fem.petsc.assemble_vector(self.b_full, self.F_form)
+        self.b_full.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self.reduction.T.multTranspose(self.b_full, b)
         self.timings.assembly += time.perf_counter() - t0
+
+    def _assemble_full_jacobian(self) -> None:
+        self.A_full.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
+        self.A_full.assemble()
 
     def _jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         t0 = time.perf_counter()
-        A.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(A, self.J_form, bcs=self.physics.bcs)
-        A.assemble()
+        self._assemble_full_jacobian()
+        self.A_full.ptap(self.reduction.T, A)
         self.timings.assembly += time.perf_counter() - t0
 
     def solve(self) -> tuple[bool, int, str]:
         """One Newton solve from the current state; returns (converged, iterations, reason)."""
-        compat.function_vector(self.physics.u).copy(self.x)
+        self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
         self.outside_domain = 0
         self.last_violation = None
         t0 = time.perf_counter()
@@ -216,8 +320,8 @@ class NewtonSolver:
             self.timings.linear_solve += spent - (self.timings.assembly + self.timings.guard - a0)
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
-        self._update_state(self.x)
-        finite = bool(np.all(np.isfinite(self.physics.u.x.array)))
+        self.reduction.expand(self.x)
+        finite = bool(np.all(np.isfinite(self.physics.state.x.array)))
         finite = self.physics.comm.allreduce(finite, op=_MPI_LAND())
         return reason > 0 and finite, its, _reason_name(reason)
 
@@ -229,9 +333,9 @@ class NewtonSolver:
 
     def destroy(self) -> None:
         self.snes.destroy()
-        self.A.destroy()
-        self.b.destroy()
-        self.x.destroy()
+        for obj in (self.A, self.A_full, self.b, self.b_full, self.x):
+            obj.destroy()
+        self.reduction.destroy()
 
 
 def _MPI_LAND() -> Any:
@@ -250,77 +354,212 @@ class StepRecord:
     force_n: float
     iterations: int
     step: float
+    time_s: float | None = None
 
 
 @dataclass
 class RampResult:
-    """What the load ramp did."""
+    """What the load path did."""
 
     steps: list[StepRecord] = field(default_factory=list)
     cutbacks: int = 0
     newton_iterations: int = 0
     linear_solver: str = ""
     fallbacks: list[str] = field(default_factory=list)
+    domain_rejections: int = 0
+    unknowns: int = 0
     timings: Timings = field(default_factory=Timings)
+
+
+class Path:
+    """A parameter s the run steps along, from 0 to ``targets[-1]``, hitting every target exactly."""
+
+    label = "load"
+    reports = True
+
+    def __init__(self, physics: Physics, targets: list[float], initial: float, min_step: float, max_step: float,
+                 grow: float):
+        self.physics = physics
+        self.targets, self.initial, self.min_step, self.max_step, self.grow = targets, initial, min_step, max_step, grow
+        self.end = targets[-1]
+
+    def force(self, s: float) -> float:
+        raise NotImplementedError
+
+    def apply(self, s_from: float, s_to: float) -> None:
+        """Set the loads (and time step) of a trial from s_from to s_to."""
+        self.physics.set_force(self.force(s_to))
+
+    def accept(self, s_from: float, s_to: float) -> None:
+        """After a converged and reported step."""
+
+    def before_report(self, s: float) -> None:
+        """After a converged step, before its outputs are evaluated."""
+
+    def time(self, s: float) -> float | None:
+        return None
+
+    def describe(self, s: float) -> str:
+        return f"F = {self.force(s):8.4f} N ({100 * s / self.end:5.1f} %)"
+
+
+class LoadRamp(Path):
+    """Quasi-static: s is the fraction of ``loading.force_n``."""
+
+    def __init__(self, physics: Physics, scene: dict[str, Any]):
+        o, f_max = scene["solver"], scene["loading"]["force_n"]
+        self.f_max = f_max
+        targets = sorted(set(f / f_max for f in scene["loading"]["report_forces_n"]) | {1.0})
+        super().__init__(physics, targets, o["initial_step"], o["min_step"], o["max_step"], o["grow"])
+
+    def force(self, s: float) -> float:
+        return s * self.f_max
+
+
+class GravityPreload(Path):
+    """The weight, ramped from 0 to 1 at zero pull force, before the pull (no reports)."""
+
+    label = "gravity"
+    reports = False
+
+    def __init__(self, physics: Physics, scene: dict[str, Any]):
+        o = scene["solver"]
+        super().__init__(physics, [1.0], 1.0, o["min_step"], 1.0, o["grow"])
+
+    def force(self, s: float) -> float:
+        return 0.0
+
+    def apply(self, s_from: float, s_to: float) -> None:
+        self.physics.set_force(0.0)
+        self.physics.gravity_factor.value = s_to
+
+    def describe(self, s: float) -> str:
+        return f"gravity {100 * s:5.1f} %"
+
+
+class TimeHistory(Path):
+    """Inertia: s is time; the force ramps over ``loading.ramp_s`` and is held for ``loading.hold_s``."""
+
+    label = "time"
+
+    def __init__(self, physics: Physics, scene: dict[str, Any]):
+        load, o = scene["loading"], scene["solver"]
+        self.f_max, self.ramp_s = load["force_n"], load["ramp_s"]
+        dt = scene["effects"]["time_step_s"]
+        targets = {f / self.f_max * self.ramp_s for f in load["report_forces_n"]} | {self.ramp_s}
+        if load["hold_s"] > 0:
+            targets.add(self.ramp_s + load["hold_s"])
+        super().__init__(physics, sorted(targets), dt, o["min_step"] * self.ramp_s, dt, o["grow"])
+        self.dynamics = physics.dynamics
+
+    def force(self, t: float) -> float:
+        return self.f_max * min(t / self.ramp_s, 1.0)
+
+    def apply(self, t_from: float, t_to: float) -> None:
+        af = self.dynamics.scheme.alpha_f
+        self.dynamics.dt.value = t_to - t_from
+        self.physics.set_force((1 - af) * self.force(t_to) + af * self.force(t_from))
+
+    def accept(self, t_from: float, t_to: float) -> None:
+        self.dynamics.accept(self.physics.state)
+
+    def before_report(self, t: float) -> None:
+        # with generalized-alpha the step was solved with the force at t_{n+1-alpha_f}; report the force at t
+        # (the pulled-face entries of the record's free residual then carry alpha_f times the step's force change)
+        self.physics.set_force(self.force(t))
+
+    def time(self, s: float) -> float | None:
+        return s
+
+    def describe(self, t: float) -> str:
+        return f"t = {t:8.4f} s  F = {self.force(t):8.4f} N"
 
 
 def ramp(
     physics: Physics,
     scene: dict[str, Any],
-    on_converged: Callable[[float, bool], None],
+    on_converged: Callable[..., None],
     timings: Timings | None = None,
 ) -> RampResult:
-    """Ramp the force from 0 to ``loading.force_n`` with adaptive steps.
+    """Follow the scene's load path: gravity preload (if called), then the load ramp or the time history.
 
-    ``on_converged(force_n, is_report_point)`` is called after every converged step; report points
-    (``loading.report_forces_n`` and the peak) are always hit exactly.
+    ``on_converged(force_n, is_report_point)`` is called after every converged step of the pull
+    (with inertia also ``time_s=t``); report points (``loading.report_forces_n``, the peak and, with
+    inertia, the end of the hold) are always hit exactly.
     Raises SolveStopped (with every converged step already handed to on_converged) when it cannot go on.
     """
-    o = scene["solver"]
-    f_max = scene["loading"]["force_n"]
-    targets = sorted(set(f / f_max for f in scene["loading"]["report_forces_n"]) | {1.0})
     result = RampResult(timings=timings or Timings())
-    newton = NewtonSolver(physics, o, result.timings)
+    newton = NewtonSolver(physics, scene["solver"], result.timings)
     result.linear_solver = newton.linear_solver
-    u_vec = compat.function_vector(physics.u)
+    result.unknowns = newton.reduction.n_global
+    fraction = scene["solver"]["gent_limit_fraction"]
+    try:
+        if physics.gravity_factor is not None:
+            _follow(GravityPreload(physics, scene), newton, result, on_converged, fraction)
+        main = TimeHistory(physics, scene) if physics.dynamics is not None else LoadRamp(physics, scene)
+        if physics.dynamics is not None:
+            physics.dynamics.start_from(physics.state)
+        _follow(main, newton, result, on_converged, fraction)
+    finally:
+        newton.destroy()
+    return result
+
+
+def _follow(path: Path, newton: NewtonSolver, result: RampResult, on_converged: Callable[..., None],
+            fraction: float) -> None:
+    """Adaptive stepping along a path, with cutback and retry, linear predictor and solver fallback."""
+    physics = newton.physics
+    eps = 1e-12 * path.end
+    u_vec = compat.function_vector(physics.state)
     last = u_vec.copy()
     previous: Any = None  # state before `last`, for the linear predictor
-    lam, prev_step, step = 0.0, 0.0, o["initial_step"]
+    s, prev_step, step = 0.0, 0.0, path.initial
     try:
-        while lam < 1.0 - 1e-12:
-            target = next(t for t in targets if t > lam + 1e-12)
-            trial = min(lam + step, target)
-            if target - trial < o["min_step"]:
+        while s < path.end - eps:
+            target = next(t for t in path.targets if t > s + eps)
+            trial = min(s + step, target)
+            if target - trial < path.min_step:
                 trial = target
             if previous is not None and prev_step > 0:  # linear predictor from the last two states
-                u_vec.axpy((trial - lam) / prev_step, last - previous)
-                physics.u.x.scatter_forward()
+                u_vec.axpy((trial - s) / prev_step, last - previous)
+                u_vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                physics.sync()
                 if not newton.guard.admissible():
                     last.copy(u_vec)
-                    physics.u.x.scatter_forward()
-            physics.set_force(trial * f_max)
+                    physics.sync()
+            path.apply(s, trial)
             ok, its, reason = newton.solve()
             result.newton_iterations += its
+            result.domain_rejections += newton.outside_domain
+            if ok and fraction < 1.0:
+                limit = newton.guard.limit_reached(fraction)
+                if limit is not None:
+                    ok, reason = False, "physical_limit"
+                    newton.last_violation = limit
             if ok:
                 if previous is None:
                     previous = last.copy()
                 else:
                     last.copy(previous)
                 u_vec.copy(last)
-                prev_step = trial - lam
-                lam = trial
-                hit = any(abs(lam - t) < 1e-12 for t in targets)
-                result.steps.append(StepRecord(lam * f_max, its, prev_step))
-                log.info(
-                    "step %3d  F = %8.4f N (%5.1f %%)  Newton its %2d  |R| %.2e  cutbacks %d",
-                    len(result.steps), lam * f_max, 100 * lam, its, newton.residual_norm(), result.cutbacks,
-                )
-                on_converged(lam * f_max, hit)
-                if its <= o["easy_iterations"]:
-                    step = min(step * o["grow"], o["max_step"])
+                prev_step = trial - s
+                s_old, s = s, trial
+                hit = any(abs(s - t) <= eps for t in path.targets)
+                if path.reports:
+                    result.steps.append(StepRecord(path.force(s), its, prev_step, path.time(s)))
+                log.info("step %3d  %s  Newton its %2d  |R| %.2e  cutbacks %d", len(result.steps), path.describe(s),
+                         its, newton.residual_norm(), result.cutbacks)
+                if path.reports:
+                    path.before_report(s)
+                    t = path.time(s)
+                    on_converged(path.force(s), hit) if t is None else on_converged(path.force(s), hit, time_s=t)
+                path.accept(s_old, s)
+                if its <= newton.options["easy_iterations"]:
+                    step = min(step * path.grow, path.max_step)
                 continue
             last.copy(u_vec)
-            physics.u.x.scatter_forward()
+            u_vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            physics.sync()
             if newton.linear_failure() or reason == "petsc_error":
                 fallback = newton.next_linear_solver()
                 if fallback is not None:
@@ -328,37 +567,42 @@ def ramp(
                     result.linear_solver = fallback
                     continue
             result.cutbacks += 1
-            step = 0.5 * (trial - lam)
+            step = 0.5 * (trial - s)
             why = _diagnose(newton, reason, its)
-            log.warning("step to F = %.4f N failed (%s); cutting the step to %.3g", trial * f_max, why, step)
-            if step < o["min_step"]:
-                raise SolveStopped.with_history(result,
+            log.warning("step to %s failed (%s); cutting the step to %.3g", path.describe(trial), why, step)
+            if step < path.min_step:
+                raise SolveStopped.with_history(
+                    result,
                     cause=_cause(newton, reason),
-                    load_reached=lam * f_max,
-                    attempted=trial * f_max,
-                    detail=f"load step fell below solver.min_step = {o['min_step']:g} after "
-                    f"{result.cutbacks} cutbacks; last failure: {why}",
+                    load_reached=path.force(s),
+                    attempted=path.force(trial),
+                    detail=f"{path.label} step fell below its minimum {path.min_step:g} after {result.cutbacks} "
+                    f"cutbacks; last failure: {why}",
                 )
     finally:
-        u_vec_final = compat.function_vector(physics.u)
-        last.copy(u_vec_final)  # never leave a diverged state behind
-        physics.u.x.scatter_forward()
-        newton.destroy()
-    return result
+        last.copy(u_vec)  # never leave a diverged state behind
+        u_vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        physics.sync()
+        for vec in (last, previous):
+            if vec is not None:
+                vec.destroy()
 
 
 def _cause(newton: NewtonSolver, reason: str) -> str:
     if newton.last_violation is not None:
         v = newton.last_violation
-        return "gent_limit" if v["quantity"].startswith("Gent") else "inverted_element"
+        return "gent_limit" if v["quantity"] == GENT_LIMIT else "inverted_element"
     if newton.linear_failure():
         return "linear_solver"
     return "newton_divergence"
 
 
 def _diagnose(newton: NewtonSolver, reason: str, its: int) -> str:
-    text = f"SNES {reason} after {its} iterations"
     v = newton.last_violation
+    if reason == "physical_limit" and v is not None:
+        return (f"converged in {its} iterations, but the Gent limit is reached in the {v['region']} at "
+                f"r = {v['r_mm']:.3f} mm, z = {v['z_mm']:.3f} mm: {v['limit']}")
+    text = f"SNES {reason} after {its} iterations"
     if v is not None:
         what = "J <= 0" if v["quantity"] == "J" else "Gent limit I1bar - 3 >= Jm"
         text += (

@@ -333,6 +333,9 @@ class NewtonSolver:
 
     def destroy(self) -> None:
         self.snes.destroy()
+        opts = PETSc.Options()  # a later solver in this process (a sweep) may reuse the prefix: leave nothing
+        for key in [k for k in opts.getAll() if k.startswith(self.prefix)]:
+            opts.delValue(key)
         for obj in (self.A, self.A_full, self.b, self.b_full, self.x):
             obj.destroy()
         self.reduction.destroy()

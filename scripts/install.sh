@@ -38,4 +38,10 @@ fi
 # Keep pip away from the compiled packages Debian's dolfinx/petsc4py were built against.
 "$venv/bin/python" -m pip install -q --disable-pip-version-check \
   -c "$here/constraints.txt" -e "$here[$extras]"
+# The Jupyter kernel "suture-fem" runs this environment's Python (the demos name it; ipykernel
+# comes with the test and demos extras). Installed inside the venv, so it shadows nothing else.
+if "$venv/bin/python" -c "import ipykernel" 2>/dev/null; then
+  "$venv/bin/python" -m ipykernel install --sys-prefix --name suture-fem \
+    --display-name "Python (suture_fem)" >/dev/null
+fi
 echo "install.sh: ready ($venv)"

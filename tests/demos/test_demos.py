@@ -1,0 +1,54 @@
+"""Every demo runs top to bottom as a notebook, in the project's Jupyter kernel.
+
+The demos are found by a glob (``demos/*.py``; files starting with ``_`` are helpers, not demos),
+so a new demo cannot be left out. Each is converted by jupytext to a notebook in memory and
+executed by nbclient with ``CI=1`` (the demos then use a coarser discretisation) in a temporary
+working folder; a failing cell raises and fails the test. The demos assert the claims of their own
+conclusions in their last code cells.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import jupytext
+import pytest
+from jupyter_client.kernelspec import KernelSpecManager, NoSuchKernel
+from nbclient import NotebookClient
+
+from tests.conftest import ROOT, mpi_env
+
+DEMOS_DIR = ROOT / "demos"
+DEMOS = sorted(p for p in DEMOS_DIR.glob("*.py") if not p.name.startswith("_"))
+#: The kernel scripts/install.sh registers for this environment's Python.
+KERNEL = "suture-fem"
+
+
+def test_demos_are_found():
+    assert {"quickstart.py", "cone_design.py"} <= {p.name for p in DEMOS}
+
+
+def test_kernel_runs_this_environment():
+    """The demos' kernel starts this virtual environment's Python (install.sh registers it)."""
+    try:
+        spec = KernelSpecManager().get_kernel_spec(KERNEL)
+    except NoSuchKernel:
+        pytest.fail(f"no Jupyter kernel {KERNEL!r}: scripts/install.sh registers it")
+    assert Path(spec.argv[0]).absolute() == Path(sys.executable).absolute()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", DEMOS, ids=[p.stem for p in DEMOS])
+def test_demo_runs_as_notebook(path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+    nb = jupytext.read(path)
+    assert nb.metadata.get("kernelspec", {}).get("name") == KERNEL, f"{path.name}: kernelspec must be {KERNEL!r}"
+    headings = [c.source for c in nb.cells if c.cell_type == "markdown"]
+    assert headings and headings[-1].startswith("## Conclusion"), f"{path.name} must end with a Conclusion"
+    for key, value in mpi_env().items():  # the kernel inherits this process's environment
+        monkeypatch.setenv(key, value)
+    monkeypatch.setenv("CI", "1")
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [str(DEMOS_DIR), os.environ.get("PYTHONPATH")])))
+    client = NotebookClient(nb, timeout=1800, kernel_name=KERNEL, resources={"metadata": {"path": str(tmp_path)}})
+    client.execute()

@@ -1,0 +1,73 @@
+"""`mpirun -n 2 suture-fem run`: the same numbers as the serial run, files and logs written once,
+and a failure on one rank ends every rank with one message instead of a hang."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from tests.conftest import cli, sets
+from tests.mpi.conftest import REL, SCENE
+
+pytestmark = pytest.mark.mpi
+
+QUANTITIES = ("usum_mm", "seqv_pa", "eptoeqv", "seqv_outside_rim_pa", "thread_end_displacement_mm",
+              "reaction_force_n", "strain_energy_j")
+REGIONS = ("hypodermis", "dermis", "epidermis", "suture", "tissue")
+
+
+@pytest.fixture(scope="module")
+def parallel_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("parallel")
+    proc = cli(["run", "paper", *sets(SCENE), "--fields", "--out", str(out)], ranks=2, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return proc, out, json.loads((out / "results.json").read_text())
+
+
+def assert_same_state(a: dict, b: dict) -> None:
+    """Every output of two results.json at every reported force, to relative REL."""
+    assert [r["force_n"] for r in a["at_forces"]] == [r["force_n"] for r in b["at_forces"]] == [0.5, 1.0]
+    for ra, rb in zip(a["at_forces"], b["at_forces"]):
+        for q in QUANTITIES:
+            assert rb[q] == pytest.approx(ra[q], rel=REL), (ra["force_n"], q)
+        for region in REGIONS:
+            for q in ("usum_mm", "seqv_pa", "eptoeqv"):
+                assert rb["regions"][region][q] == pytest.approx(ra["regions"][region][q], rel=REL), (region, q)
+    fa, fb = np.array(a["force_displacement"]), np.array(b["force_displacement"])
+    assert fa.shape == fb.shape
+    assert fb[:, 0] == pytest.approx(fa[:, 0], rel=1e-12)  # the same load steps
+    assert fb[:, 1] == pytest.approx(fa[:, 1], rel=REL)
+
+
+def test_two_ranks_give_the_serial_results(serial_run, parallel_run):
+    _, _, par = parallel_run
+    assert (serial_run["mpi_ranks"], par["mpi_ranks"]) == (1, 2)
+    assert par["status"] == serial_run["status"] == "converged"
+    assert (par["dofs"], par["cells"]) == (serial_run["dofs"], serial_run["cells"])
+    assert_same_state(serial_run, par)
+
+
+def test_two_ranks_log_once_and_write_each_file_once(parallel_run):
+    proc, out, _ = parallel_run
+    steps = [line for line in proc.stderr.splitlines() if "step   1 " in line]
+    assert len(steps) == 1, proc.stderr
+    assert proc.stdout.count("results in") == 1
+    assert sorted(p.name for p in out.iterdir()) == ["fields.h5", "fields.xdmf", "results.json"]
+
+
+def test_a_failure_on_rank_0_ends_every_rank(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    proc = cli(["run", "paper", *sets(SCENE), "--out", str(blocker / "out")], ranks=2, timeout=300)
+    assert proc.returncode == 1
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("suture-fem: error:")]
+    assert len(errors) == 1 and "creating the output folder" in errors[0], proc.stderr
+
+
+def test_a_bad_scene_stops_every_rank_with_one_line():
+    proc = cli(["run", "paper", "--set", "geometry.cones=-1"], ranks=2, timeout=300)
+    assert proc.returncode == 2
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("suture-fem: error:")]
+    assert len(errors) == 1 and "geometry.cones" in errors[0], proc.stderr

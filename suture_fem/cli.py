@@ -23,7 +23,7 @@ from suture_fem.errors import SutureFemError
 
 #: Modules that add a subcommand: each has ``register(subparsers, scene_args)``, which adds its
 #: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
-COMMAND_MODULES: tuple[str, ...] = ("suture_fem.sweep",)
+COMMAND_MODULES: tuple[str, ...] = ("suture_fem.sweep", "suture_fem.convergence")
 
 
 class _RankFilter(logging.Filter):
@@ -74,6 +74,8 @@ def build_parser() -> argparse.ArgumentParser:
     _scene_args(p)
     p.add_argument("--out", default=None, help="output folder (default: results/<scene name>)")
     p.add_argument("--fields", action="store_true", help="also write XDMF fields (same as --set output.fields=true)")
+    p.add_argument("--error-estimate", action="store_true",
+                   help="solve once more one refinement coarser and attach 'USUM = x mm +- y' (see convergence.py)")
 
     p = sub.add_parser("mesh", help="write a scene's mesh as a gmsh .msh file (mm) with a JSON record")
     _scene_args(p)
@@ -147,6 +149,10 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
 
         out = Path(args.out or f"results/{_scene_name(args.scene)}")
         results = run_scene(scene, out, comm)
+        if args.error_estimate:
+            from suture_fem.convergence import attach_error_estimate
+
+            attach_error_estimate(scene, results, comm, out)
         if comm.rank == 0:
             print(_summary(results, out))
         return 0
@@ -161,6 +167,8 @@ def _summary(results: dict[str, Any], out: Path) -> str:
             f"EPTOEQV = {rec['eptoeqv']:.4g}, thread end {rec['thread_end_displacement_mm']:.4g} mm, "
             f"reaction {rec['reaction_force_n']:.6g} N"
         )
+    if "error_estimate" in results:
+        lines.append(f"  {results['error_estimate'].get('usum_text', 'no error estimate')}")
     return "\n".join(lines)
 
 

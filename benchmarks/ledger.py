@@ -1,0 +1,94 @@
+"""Benchmark: the accuracy-cost ledger of the paper scene (4 hollow cones, 1 N and 4 N), sharp and filleted rims.
+
+Runs `suture-fem convergence` for each ladder below (every rung in its own process; rungs already
+solved in OUT are reused, so an interrupted run resumes), prints a summary table and writes
+OUT/summary.json and OUT/summary.md (the tables of every ledger, for docs/ledger.md).
+
+    .venv/bin/python benchmarks/ledger.py [--out benchmarks/out/ledger] [--only paper]
+
+The finest rungs are slow on a 2-core machine (degree 1 refinement 2: about 100k cells; degree 2 is
+stopped at refinement 1): the whole benchmark takes 30-60 minutes there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from suture_fem.io import write_json, write_text  # noqa: E402
+
+#: name -> (title, extra arguments of `suture-fem convergence paper`)
+LADDERS = {
+    "paper": ("paper scene, sharp rims", []),
+    "paper-fillet": ("paper scene, base rims rounded (geometry.cone_fillet_mm = 0.05)",
+                     ["--set", "geometry.cone_fillet_mm=0.05"]),
+}
+COMMON = ["--degrees", "1,2", "--refinements", "0,1,2", "--cap", "2=1", "--forces", "1,4"]
+SUMMARY = ("usum_mm", "regions.tissue.seqv_pa", "regions.tissue.seqv_outside_rim_pa", "eptoeqv")
+
+
+def run_ladder(name: str, out: Path) -> dict:
+    title, extra = LADDERS[name]
+    cmd = [sys.executable, "-m", "suture_fem.cli", "convergence", "paper", *extra, *COMMON,
+           "--title", title, "--out", str(out / name)]
+    print(f"$ {' '.join(cmd[1:])}", flush=True)
+    proc = subprocess.run(cmd, cwd=ROOT)
+    if proc.returncode not in (0, 3):
+        raise SystemExit(f"ledger {name} failed with exit code {proc.returncode}")
+    return json.loads((out / name / "ledger.json").read_text())
+
+
+def summary_rows(name: str, ledger: dict) -> list[dict]:
+    rows = []
+    for force, per_q in ledger["analysis"].items():
+        for rung in ledger["rungs"]:
+            row = {"ledger": name, "force_n": float(force), "rung": rung["name"], "dofs": rung["dofs"],
+                   "wall_time_s": rung["wall_time_s"], "cpu_time_s": rung.get("cpu_time_s"),
+                   "peak_memory_mb": rung["peak_memory_mb"]}
+            for path in SUMMARY:
+                e = per_q[path]["rungs"].get(rung["name"], {})
+                row[path] = e.get("value")
+                row[path + ":error_rel"] = e.get("error_rel")
+            rows.append(row)
+    return rows
+
+
+def _cell(v, err) -> str:
+    if v is None:
+        return "-"
+    txt = f"{v:.4g}" if abs(v) < 1e4 else f"{v / 1e3:.4g}k"
+    return txt + (f" ({100 * err:.2g}%)" if err is not None else "")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default=str(ROOT / "benchmarks/out/ledger"))
+    ap.add_argument("--only", choices=list(LADDERS), action="append", help="run only these ladders")
+    args = ap.parse_args()
+    out = Path(args.out)
+    ledgers = {name: run_ladder(name, out) for name in (args.only or LADDERS)}
+    rows = [r for name, ledger in ledgers.items() for r in summary_rows(name, ledger)]
+    header = ["ledger", "F (N)", "rung", "dofs", "wall (s)", "peak MB", "USUM mm", "SEQV tissue", "SEQV out-rim",
+              "EPTOEQV"]
+    print("\n" + " | ".join(header))
+    for r in rows:
+        print(" | ".join([r["ledger"], f"{r['force_n']:g}", r["rung"], str(r["dofs"]), f"{r['wall_time_s']:.1f}",
+                          f"{r['peak_memory_mb']:.0f}"] + [_cell(r[p], r[p + ":error_rel"]) for p in SUMMARY]))
+    within = {name: ledger["usum_within_1_percent"] for name, ledger in ledgers.items()}
+    print("\nUSUM within 1 % of the extrapolated value:", json.dumps(within, indent=1))
+    write_json(out / "summary.json", {"rows": rows, "usum_within_1_percent": within,
+                                      "verdicts": {name: {f: {p["label"]: p["verdict"] for p in per_q.values()}
+                                                          for f, per_q in ledger["analysis"].items()}
+                                                   for name, ledger in ledgers.items()}})
+    write_text(out / "summary.md", "\n\n".join((out / name / "ledger.md").read_text() for name in ledgers))
+    print(f"\nwrote {out / 'summary.json'} and {out / 'summary.md'}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,92 @@
+"""The accuracy-cost ledger and `run --error-estimate`: Richardson arithmetic, files, the CLI contract."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from suture_fem.convergence import QUANTITIES, richardson, two_rung_error
+from tests.conftest import FAST, sets
+
+
+@pytest.mark.parametrize("order", [1.0, 2.0, 0.7])
+def test_richardson_recovers_order_and_limit_of_a_power_law(order):
+    values = [3.0 + 0.5 * h**order for h in (1.0, 0.5, 0.25)]
+    est = richardson(values)
+    assert est.verdict == "converging"
+    assert est.order == pytest.approx(order, rel=1e-12)
+    assert est.limit == pytest.approx(3.0, rel=1e-12)
+
+
+def test_richardson_calls_a_growing_or_oscillating_sequence_what_it_is():
+    singular = [2.0 * h**-0.3 for h in (1.0, 0.5, 0.25)]  # a stress singularity sampled at h
+    assert richardson(singular).verdict == "diverging" and richardson(singular).limit is None
+    assert richardson([1.0, 1.2, 1.1]).verdict == "oscillating"
+    assert richardson([1.0, 1.2]).verdict == "too few rungs"
+    settled = richardson([1.0, 1.0005, 1.0003], settled_rel=1e-3)
+    assert settled.verdict == "settled" and settled.limit == 1.0003 and settled.correction == pytest.approx(2e-4)
+
+
+def test_two_rung_error_is_the_difference_over_two_to_the_p_minus_one():
+    assert two_rung_error(4.1, 4.0, order=1.0) == pytest.approx(0.1)
+    assert two_rung_error(4.1, 4.0, order=2.0) == pytest.approx(0.1 / 3)
+
+
+def test_run_error_estimate_attaches_plus_minus(tmp_path):
+    from suture_fem.cli import main
+
+    out = tmp_path / "run"
+    assert main(["run", "paper", *sets(FAST + ["geometry.cones=1"]), "--error-estimate", "--out", str(out)]) == 0
+    res = json.loads((out / "results.json").read_text())
+    est = res["error_estimate"]
+    usum = est["at_forces"][-1]["usum_mm"]
+    assert usum["value"] == res["usum_mm"]
+    assert usum["plus_minus"] == pytest.approx(abs(usum["value"] - usum["coarse_value"]))
+    assert est["usum_text"].startswith(f"USUM = {res['usum_mm']:.4g} mm +- ")
+    assert est["coarse_mesh"]["dofs"] < res["dofs"]
+    # the tissue's stress peak sits at a sharp rim corner: a singularity, so no estimate is attached
+    peak = est["at_forces"][-1]["regions.tissue.seqv_pa"]
+    corners = res["geometry"]["corners_mm"]
+    assert min(math.dist(peak["at_mm"], c) for c in corners) <= res["scene"]["output"]["rim_exclusion_mm"]
+    assert peak["plus_minus"] is None and "singularity" in peak["note"]
+
+
+def test_convergence_command_writes_the_ledger(tmp_path):
+    """Three rim levels of a one-cone scene, each its own `suture-fem run` process."""
+    from suture_fem.cli import main
+
+    out = tmp_path / "ledger"
+    args = ["convergence", "paper", *sets(FAST + ["geometry.cones=1"]), "--degrees", "1", "--refinements", "0,1,2",
+            "--refine", "rim", "--out", str(out)]
+    assert main(args) == 0
+    ledger = json.loads((out / "ledger.json").read_text())
+    assert [r["name"] for r in ledger["rungs"]] == ["p1_rim0", "p1_rim1", "p1_rim2"]
+    for rung in ledger["rungs"]:
+        assert rung["status"] == "converged" and rung["peak_memory_mb"] > 0 and rung["wall_time_s"] > 0
+        assert (out / "rungs" / rung["name"] / "results.json").exists()
+    dofs = [r["dofs"] for r in ledger["rungs"]]
+    assert dofs == sorted(dofs) and len(set(dofs)) == 3
+    per_q = ledger["analysis"]["1"]
+    assert set(per_q) == {q.path for q in QUANTITIES}
+    for p in per_q.values():
+        est = p["estimates"]["P1"]
+        assert est["refinements"] == [0, 1, 2] and len(est["values"]) == 3
+        if est["verdict"] == "converging":
+            assert math.isfinite(est["limit"]) and est["order"] > 0
+    md = (out / "ledger.md").read_text()
+    assert "| P1 rim2 |" in md and "USUM" in md
+    assert (out / "ledger.png").stat().st_size > 10_000
+    # a second call reuses every rung instead of solving again
+    before = (out / "rungs" / "p1_rim0" / "results.json").stat().st_mtime_ns
+    assert main(args) == 0
+    assert (out / "rungs" / "p1_rim0" / "results.json").stat().st_mtime_ns == before
+
+
+def test_convergence_rejects_a_bad_ladder_before_solving(tmp_path):
+    from suture_fem.cli import main
+
+    assert main(["convergence", "paper", "--degrees", "3", "--out", str(tmp_path)]) == 2
+    assert main(["convergence", "paper", "--forces", "7", "--out", str(tmp_path)]) == 2
+    assert not (tmp_path / "rungs").exists()

@@ -62,6 +62,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from suture_fem import scene as scenes
 from suture_fem.errors import SceneError, SolveStopped, SutureFemError
 from suture_fem.io import read_json, write_json, write_text
@@ -349,8 +351,6 @@ class _Counter:
         world.Barrier()
 
     def take(self) -> int:
-        import numpy as np
-
         one, got = np.ones(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
         self.win.Lock(0, self.MPI.LOCK_SHARED)
         self.win.Fetch_and_op(one, got, 0, 0, self.MPI.SUM)

@@ -291,7 +291,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
         }
     if effects.gravity:
         notes["gravity"] = {"g_m_s2": scene["effects"]["gravity_m_s2"], "direction": scene["effects"]["gravity_direction"],
-                            "applied": "quasi-statically before the pull"}
+                            "weight_n": weight_n(tagged, scene), "applied": "quasi-statically before the pull"}
     if not effects.inertia:
         left_out["inertia"] = "effects.inertia = false: no mass or damping form"
     if not effects.gravity:
@@ -326,6 +326,26 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
         left_out=left_out,
         notes=notes,
     )
+
+
+def weight_n(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> float:
+    """Total weight rho g V (N) from the mesh geometry, independently of the weak form.
+
+    For a straight-sided triangle int r dA = A r_centroid exactly, so V = sum 2 pi A r_centroid.
+    """
+    mesh = tagged.mesh
+    e = scene["effects"]
+    n_owned = mesh.topology.index_map(2).size_local
+    geom = mesh.geometry.x[:, :2]
+    cells = mesh.geometry.dofmap.array.reshape(-1, 3)
+    total = 0.0
+    for tag, region in REGION_OF_TAG.items():
+        ids = meshmod.region_cells(tagged, tag)
+        ids = ids[ids < n_owned]
+        p = geom[cells[ids]]
+        area = 0.5 * np.abs(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
+        total += e[f"density_{region}_kg_m3"] * float(np.sum(2 * math.pi * area * p[:, :, 0].mean(axis=1)))
+    return mesh.comm.allreduce(total) * e["gravity_m_s2"]
 
 
 def _unknowns(W: Any, W_u: Any, bcs: list[Any], tagged: meshmod.TaggedMesh, rigid: bool) -> Unknowns:

@@ -94,6 +94,7 @@ def run_scene(
                 "linear_solver": history.linear_solver,
                 "linear_solver_fallbacks": history.fallbacks,
                 "domain_rejections": history.domain_rejections,
+                "line_search_switches": history.line_search_switches,
             }
         )
 

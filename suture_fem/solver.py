@@ -20,6 +20,11 @@ Three guards keep hard cases from producing silent wrong numbers:
   :class:`~suture_fem.errors.SolveStopped` diagnosis that names the cause.
 * Linear solver fallback. When the LU factorisation fails, the next direct solver of the fallback
   list is tried for the same step, and the switch is logged.
+* Line search fallback. The residual norm is a poor merit function where the tissue is nearly
+  incompressible: from rest, the backtracking ("bt") line search creeps with steps of a few percent
+  while full Newton steps ("basic") converge quadratically; where full steps leave the admissible
+  domain it is the other way round. A Newton solve that fails is retried once at the same load with
+  the other line search (and that one is kept while it works) before the step is cut.
 
 The load path is the load fraction (quasi-static), or time over ramp and hold (with inertia); with
 gravity the weight is applied first, quasi-statically, at zero pull force.
@@ -120,8 +125,10 @@ class DomainGuard:
         """True on every rank when the current state is inside the domain everywhere (collective)."""
 
         def outside(region: str, name: str, value: float) -> float | None:
+            if name == "J" and not value > 0.0:
+                return math.inf  # an inverted element is the root cause (the other limits are NaN there)
             if not math.isfinite(value):
-                return math.inf
+                return 1e300
             return -value if value <= 0.0 else None
 
         self.violation = self._worst(outside)
@@ -225,6 +232,7 @@ class NewtonSolver:
         self.last_violation: dict[str, Any] | None = None
         self.options = solver_options
         self.linear_solver = solver_options["linear_solver"]
+        self.line_search = str(solver_options.get("petsc_options", {}).get("snes_linesearch_type", "bt"))
         self.snes = PETSc.SNES().create(physics.comm)
         self.prefix = f"suture_{id(self)}_"
         self._configure()
@@ -234,7 +242,7 @@ class NewtonSolver:
         opts = PETSc.Options()
         base = {
             "snes_type": "newtonls",
-            "snes_linesearch_type": "bt",
+            "snes_linesearch_type": self.line_search,
             "snes_max_it": o["max_iterations"],
             "snes_rtol": o["rtol"],
             "snes_atol": o["atol"],
@@ -271,6 +279,13 @@ class NewtonSolver:
         pc.setFactorSolverType(self.linear_solver)
         self.snes.getKSP().setFromOptions()
         return self.linear_solver
+
+    def other_line_search(self) -> str:
+        """Switch between backtracking and full Newton steps; returns the new line search."""
+        self.line_search = "basic" if self.line_search != "basic" else "bt"
+        PETSc.Options()[self.prefix + "snes_linesearch_type"] = self.line_search
+        self.snes.setFromOptions()
+        return self.line_search
 
     def _residual(self, snes: Any, x: Any, b: Any) -> None:
         self.reduction.expand(x)
@@ -370,6 +385,7 @@ class RampResult:
     linear_solver: str = ""
     fallbacks: list[str] = field(default_factory=list)
     domain_rejections: int = 0
+    line_search_switches: int = 0
     unknowns: int = 0
     timings: Timings = field(default_factory=Timings)
 
@@ -395,6 +411,10 @@ class Path:
 
     def accept(self, s_from: float, s_to: float) -> None:
         """After a converged and reported step."""
+
+    def restore(self, s: float) -> None:
+        """Loads of the converged state at s (after a failed trial, e.g. when the path stops)."""
+        self.physics.set_force(self.force(s))
 
     def before_report(self, s: float) -> None:
         """After a converged step, before its outputs are evaluated."""
@@ -435,6 +455,9 @@ class GravityPreload(Path):
     def apply(self, s_from: float, s_to: float) -> None:
         self.physics.set_force(0.0)
         self.physics.gravity_factor.value = s_to
+
+    def restore(self, s: float) -> None:
+        self.apply(s, s)
 
     def describe(self, s: float) -> str:
         return f"gravity {100 * s:5.1f} %"
@@ -517,6 +540,7 @@ def _follow(path: Path, newton: NewtonSolver, result: RampResult, on_converged: 
     last = u_vec.copy()
     previous: Any = None  # state before `last`, for the linear predictor
     s, prev_step, step = 0.0, 0.0, path.initial
+    retried = False  # this step already retried with the other line search
     try:
         while s < path.end - eps:
             target = next(t for t in path.targets if t > s + eps)
@@ -559,6 +583,7 @@ def _follow(path: Path, newton: NewtonSolver, result: RampResult, on_converged: 
                 path.accept(s_old, s)
                 if its <= newton.options["easy_iterations"]:
                     step = min(step * path.grow, path.max_step)
+                retried = False
                 continue
             last.copy(u_vec)
             u_vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -569,6 +594,13 @@ def _follow(path: Path, newton: NewtonSolver, result: RampResult, on_converged: 
                     result.fallbacks.append(fallback)
                     result.linear_solver = fallback
                     continue
+            if reason != "physical_limit" and not retried:
+                retried = True
+                result.line_search_switches += 1
+                log.info("Newton failed at %s (%s); retrying with the %s line search", path.describe(trial),
+                         reason, newton.other_line_search())
+                continue
+            retried = False
             result.cutbacks += 1
             step = 0.5 * (trial - s)
             why = _diagnose(newton, reason, its)
@@ -583,9 +615,10 @@ def _follow(path: Path, newton: NewtonSolver, result: RampResult, on_converged: 
                     f"cutbacks; last failure: {why}",
                 )
     finally:
-        last.copy(u_vec)  # never leave a diverged state behind
+        last.copy(u_vec)  # never leave a diverged state behind, nor the loads of a failed trial
         u_vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         physics.sync()
+        path.restore(s)
         for vec in (last, previous):
             if vec is not None:
                 vec.destroy()

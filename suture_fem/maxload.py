@@ -1,0 +1,99 @@
+"""``suture-fem maxload SCENE``: the largest force a scene carries before a physical limit, bracketed.
+
+The scene is ramped toward ``--up-to`` newtons with the adaptive load stepping of
+:mod:`suture_fem.solver`, its smallest step set so that the last converged force and the first
+failed one are less than ``--tol`` newtons apart (a failed step is halved until it is shorter than
+2 * solver.min_step * F, so solver.min_step = tol / (2 F)). The run stops where no admissible
+equilibrium is found any more: the Gent limit reached (cause ``gent_limit``), an element about to
+invert (``inverted_element``), or Newton failing for no physical reason (``newton_divergence``,
+``linear_solver``, reported as numerical, not as a limit of the tissue). When the whole ramp
+converges, the answer is a lower bound only ("carries at least --up-to").
+
+Writes DIR/maxload.json (the bracket, its cause, the tolerance) next to DIR/results.json (the ramp,
+every converged step kept). Exit code 0 when a bracket or a lower bound was found, 3 when the ramp
+stopped for a numerical reason.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+from pathlib import Path
+from typing import Any
+
+from suture_fem.errors import SceneError, SolveStopped
+from suture_fem.io import write_json
+
+PHYSICAL = ("gent_limit", "inverted_element")
+
+
+def search_scene(scene: dict[str, Any], up_to_n: float, tol_n: float) -> dict[str, Any]:
+    """The scene set up for the search: ramp to up_to_n with a minimum step that brackets to tol_n."""
+    if not 0 < tol_n < up_to_n:
+        raise SceneError(f"maxload: --tol = {tol_n:g} N must be > 0 and < --up-to = {up_to_n:g} N")
+    s = copy.deepcopy(scene)
+    s["loading"]["force_n"] = up_to_n
+    s["loading"]["report_forces_n"] = []
+    o = s["solver"]
+    o["min_step"] = min(tol_n / (2.0 * up_to_n), o["initial_step"])
+    return s
+
+
+def max_load(scene: dict[str, Any], comm: Any, up_to_n: float, tol_n: float, out: Path | None) -> dict[str, Any]:
+    """Ramp toward up_to_n and return the bracket record (also written to out/maxload.json)."""
+    from suture_fem.parallel import on_root
+    from suture_fem.run import run_scene
+
+    searched = search_scene(scene, up_to_n, tol_n)
+    record: dict[str, Any] = {"up_to_n": up_to_n, "tolerance_n": tol_n, "min_step": searched["solver"]["min_step"]}
+    try:
+        results = run_scene(searched, out, comm)
+        record.update({
+            "bracketed": False, "cause": None, "max_force_n": None, "carries_at_least_n": up_to_n,
+            "note": f"the whole ramp to {up_to_n:g} N converged: no limit below it (raise --up-to)",
+            "wall_time_s": results["wall_time_s"],
+        })
+    except SolveStopped as stop:
+        physical = stop.cause in PHYSICAL
+        record.update({
+            "bracketed": physical,
+            "cause": stop.cause,
+            "limit": "physical" if physical else "numerical",
+            "max_force_n": stop.load_reached,
+            "bracket_n": [stop.load_reached, stop.attempted],
+            "width_n": stop.attempted - stop.load_reached,
+            "detail": stop.detail,
+        })
+    if out is not None:
+        on_root(comm, f"writing {out / 'maxload.json'}", write_json, out / "maxload.json", record)
+    return record
+
+
+def _handler(args: argparse.Namespace, comm: Any) -> int:
+    from suture_fem import scene as scenes
+
+    scene = scenes.load_scene(args.scene, list(args.overrides))
+    up_to = args.up_to if args.up_to is not None else 10.0 * scene["loading"]["force_n"]
+    name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
+    out = Path(args.out or f"results/{name}-maxload")
+    rec = max_load(scene, comm, up_to, args.tol, out)
+    if comm.rank == 0:
+        if rec["bracketed"]:
+            print(f"suture-fem: the scene carries {rec['bracket_n'][0]:.6g} N and fails at {rec['bracket_n'][1]:.6g} N "
+                  f"(tolerance {rec['tolerance_n']:g} N): {rec['cause']}; {out / 'maxload.json'}")
+        elif rec["cause"] is None:
+            print(f"suture-fem: carries at least {up_to:g} N (no limit below --up-to); {out / 'maxload.json'}")
+        else:
+            print(f"suture-fem: the ramp stopped at {rec['max_force_n']:.6g} N for a numerical reason "
+                  f"({rec['cause']}), not a physical limit; {out / 'maxload.json'}")
+    return 3 if rec.get("limit") == "numerical" else 0
+
+
+def register(subparsers: Any, scene_args: Any) -> None:
+    p = subparsers.add_parser("maxload", help="bracket the largest force a scene carries before a physical limit")
+    scene_args(p)
+    p.add_argument("--up-to", type=float, default=None, metavar="N",
+                   help="highest force to try, N (default: 10 x loading.force_n)")
+    p.add_argument("--tol", type=float, default=0.01, metavar="N", help="bracket width, N (default 0.01)")
+    p.add_argument("--out", default=None, help="output folder (default: results/<scene>-maxload)")
+    p.set_defaults(handler=_handler)

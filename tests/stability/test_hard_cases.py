@@ -1,0 +1,137 @@
+"""Hard cases stay numerically stable: the fast subset of the matrix, the guards, the fallback, the max-load search.
+
+Every run here is degree 1 on the coarsest mesh (FAST); the full matrix is benchmarks/hardcases.py.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from suture_fem.hardcases import BALANCE_TOL, FAST_SUBSET, run_case
+from tests.conftest import FAST, run_inprocess
+
+GENT = "Gent jm = 0.05"
+BASELINE = "paper P1 1 N"
+
+
+@pytest.fixture(scope="module")
+def subset(tmp_path_factory):
+    """name -> (table row, output folder) for each case of the fast subset."""
+    out = {}
+    for name, overrides in FAST_SUBSET.items():
+        folder = tmp_path_factory.mktemp("case")
+        out[name] = (run_case(name, overrides, folder, inprocess=True), folder)
+    return out
+
+
+@pytest.mark.parametrize("name", list(FAST_SUBSET))
+def test_case_converges_or_stops_with_a_diagnosis(subset, name):
+    row = subset[name][0]
+    assert row["outcome"] in ("converged", "stopped"), row
+    if row["outcome"] == "converged":
+        assert row["exit_code"] == 0 and row["force_balance_rel"] < BALANCE_TOL
+        assert row["load_reached_n"] == row["applied_force_n"]
+    else:
+        assert row["exit_code"] == 3 and row["cause"] and row["detail"]
+        assert row["load_reached_n"] < row["applied_force_n"]
+
+
+def test_gent_limit_inside_the_ramp_stops_with_exit_3_and_keeps_every_step(subset):
+    row, folder = subset[GENT]
+    assert row["outcome"] == "stopped" and row["exit_code"] == 3
+    assert row["cause"] == "gent_limit"
+    assert "epidermis" in row["detail"] and "gent_limit_fraction" in row["detail"]
+    # the converged part of the ramp is all there, and its last state is finite and balanced
+    res = json.loads((folder / "results.json").read_text())
+    assert res["status"] == "stopped" and res["diagnosis"]["cause"] == "gent_limit"
+    fd = np.array(res["force_displacement"])
+    assert len(fd) == res["load_steps"] + 1 and np.all(np.diff(fd[:, 0]) > 0)
+    assert fd[-1, 0] == pytest.approx(res["diagnosis"]["load_reached_n"], rel=1e-12)
+    last = res["at_forces"][-1]
+    assert last["force_n"] == pytest.approx(res["diagnosis"]["load_reached_n"], rel=1e-12)
+    assert all(math.isfinite(last[k]) for k in ("usum_mm", "seqv_pa", "eptoeqv"))
+    assert last["force_balance_rel"] < BALANCE_TOL
+    assert res["diagnosis"]["attempted_n"] > res["diagnosis"]["load_reached_n"]
+
+
+def test_trial_states_outside_the_domain_are_rejected_and_the_solve_still_converges(subset, tmp_path):
+    """One 0 -> 1 N step: Newton's first iterates invert elements; the guard turns them into a huge finite
+    residual, the line search backtracks, the step is cut, and the ramp ends at the same equilibrium."""
+    one_step = run_inprocess("paper", FAST + ["solver.initial_step=1.0", "solver.max_step=1.0",
+                                              "loading.report_forces_n=[]"], tmp_path / "one")
+    ramped = subset[BASELINE][0]
+    assert one_step["status"] == "converged" and one_step["domain_rejections"] > 0
+    assert one_step["cutbacks"] > 0
+    # same discrete equilibrium: both stop at |R| <= atol = 1e-10 N on a tissue whose softest stiffness is
+    # about F / USUM = 400 N/m, so they agree far below 1e-9 relative
+    assert one_step["usum_mm"] == pytest.approx(ramped["usum_mm"], rel=1e-9)
+    assert one_step["force_balance_rel"] < BALANCE_TOL
+
+
+def test_outside_domain_residual_is_finite_and_names_the_violation():
+    from mpi4py import MPI
+
+    from suture_fem import compat
+    from suture_fem import mesh as meshmod
+    from suture_fem.physics import build_physics
+    from suture_fem.scene import load_scene
+    from suture_fem.solver import OUTSIDE_DOMAIN_RESIDUAL, NewtonSolver, Timings
+
+    scene = load_scene("paper", FAST)
+    physics = build_physics(meshmod.create_mesh(MPI.COMM_SELF, scene), scene)
+    newton = NewtonSolver(physics, scene["solver"], Timings())
+    try:
+        xy = physics.V.tabulate_dof_coordinates()[:, :2]
+        u = physics.u.x.array.reshape(-1, 2)
+        u[:, 1] = -2.0 * xy[:, 1]  # axial stretch 1 + du_z/dz = -1: J = -1 everywhere
+        physics.u.x.scatter_forward()
+        x = newton.reduction.create_vector()
+        b = newton.reduction.create_vector()
+        newton.reduction.restrict(compat.function_vector(physics.state), x)
+        newton._residual(newton.snes, x, b)
+        assert np.all(b.array == OUTSIDE_DOMAIN_RESIDUAL) and np.all(np.isfinite(b.array))
+        assert newton.last_violation["quantity"] == "J" and newton.last_violation["value"] < 0
+        x.set(0.0)  # the undeformed state is admissible: an ordinary residual (the pull is 0 here)
+        newton._residual(newton.snes, x, b)
+        assert np.all(np.isfinite(b.array)) and b.norm() < 1e-12
+        x.destroy()
+        b.destroy()
+    finally:
+        newton.destroy()
+
+
+def test_failing_linear_solver_falls_back_and_says_so(subset, tmp_path, capfd):
+    """MUMPS limited to 1 MB of working memory (ICNTL(23) = 1) fails to factor; SuperLU_dist takes over."""
+    res = run_inprocess("paper", FAST + ["solver.petsc_options={mat_mumps_icntl_23 = 1}", "loading.report_forces_n=[]"],
+                        tmp_path)
+    err = capfd.readouterr().err
+    assert "linear solver mumps failed; falling back to superlu_dist" in err
+    assert res["status"] == "converged"
+    assert res["linear_solver_fallbacks"] == ["superlu_dist"] and res["linear_solver"] == "superlu_dist"
+    assert res["force_balance_rel"] < BALANCE_TOL
+    assert res["usum_mm"] == pytest.approx(subset[BASELINE][0]["usum_mm"], rel=1e-9)  # the same equilibrium
+
+
+def test_max_load_search_brackets_the_gent_limit_to_its_tolerance(subset, tmp_path):
+    from mpi4py import MPI
+
+    from suture_fem.maxload import max_load
+    from suture_fem.scene import load_scene
+
+    scene = load_scene("paper", list(FAST_SUBSET[GENT]))
+    tol, up_to = 0.02, 3.5
+    rec = max_load(scene, MPI.COMM_SELF, up_to, tol, tmp_path)
+    assert rec["bracketed"] and rec["cause"] == "gent_limit" and rec["limit"] == "physical"
+    lo, hi = rec["bracket_n"]
+    assert 0 < hi - lo <= tol
+    assert json.loads((tmp_path / "maxload.json").read_text())["bracket_n"] == [lo, hi]
+    # the plain run (other steps, solver.min_step = 1e-4) stopped at the same limit: the brackets overlap
+    row = subset[GENT][0]
+    attempted = json.loads((tmp_path / "results.json").read_text())["diagnosis"]["attempted_n"]
+    assert attempted == hi
+    min_step_n = scene["solver"]["min_step"] * scene["loading"]["force_n"]
+    assert lo <= row["load_reached_n"] + 2 * min_step_n and row["load_reached_n"] <= hi

@@ -23,7 +23,7 @@ from suture_fem.errors import SutureFemError
 
 #: Modules that add a subcommand: each has ``register(subparsers, scene_args)``, which adds its
 #: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
-COMMAND_MODULES: tuple[str, ...] = ("suture_fem.sweep", "suture_fem.convergence")
+COMMAND_MODULES: tuple[str, ...] = ("suture_fem.sweep", "suture_fem.convergence", "suture_fem.reproduce")
 
 
 class _RankFilter(logging.Filter):

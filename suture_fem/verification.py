@@ -22,6 +22,8 @@ Integrating the weak form  int P : dF(v) 2 pi R dR dZ  by parts gives exactly th
 u = u* on the Dirichlet boundary (u_r = 0 on the axis, where the natural condition carries the weight
 R = 0) the discrete solution converges to u* at the rates of the element: k + 1 in L2 and k in H1
 for degree k, measured in the 2 pi r-weighted norms (the energy norm includes the hoop term u_r / r).
+The mixed formulation (Taylor-Hood P2/P1, pressure p = U'(J) in the tissue) has the same exact
+displacement, the exact pressure p* = U'(J(u*)) and the same body force (P_iso + p* J F^-T = P).
 
 Telescopic shear of a tube
 --------------------------
@@ -74,7 +76,8 @@ from petsc4py import PETSc
 from suture_fem import compat, kinematics
 from suture_fem.kinematics import THETA, R, Z
 from suture_fem.materials import Gent, Material, Yeoh, first_piola
-from suture_fem.physics import quadrature_degree
+from suture_fem.effects import Effects, FormContext, Terms, elastic_terms
+from suture_fem.physics import REGION_OF_TAG, quadrature_degree
 
 #: An exact displacement written once for both UFL and numpy: (x, m) -> [u_r, u_z], with x = (r, z)
 #: and m the module providing sin, cos, exp (``ufl`` or ``numpy``).
@@ -122,22 +125,26 @@ def rectangle(comm: Any, radii: Sequence[float], z_range: tuple[float, float], c
     return mesh, tags
 
 
-def _boundary_dofs(V: Any, mesh: Any, where: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
-    fdim = mesh.topology.dim - 1
-    facets = dolfinx.mesh.locate_entities_boundary(mesh, fdim, where)
-    return dolfinx.fem.locate_dofs_topological(V, fdim, facets)
-
-
 # ------------------------------------------------------------------------------------- weak form
 
 
 @dataclass
 class Problem:
-    """A verification problem: the production energy on a rectangle, its unknown, residual and Jacobian."""
+    """A verification problem: the production weak form on a rectangle, its unknown, residual and Jacobian.
+
+    Attributes:
+        W, state: space of the unknown and the unknown (displacement, or displacement and pressure).
+        u, p: the displacement and (mixed) the pressure as UFL expressions of ``state``; p is None
+            for the plain displacement formulation.
+        W_u: the displacement (sub)space of W.
+    """
 
     mesh: Any
-    V: Any
+    W: Any
+    W_u: Any
+    state: Any
     u: Any
+    p: Any
     x: Any
     residual: Any
     jacobian: Any
@@ -148,49 +155,105 @@ class Problem:
         return self.mesh.comm
 
     def num_dofs(self) -> int:
-        return int(self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs)
+        return int(self.W.dofmap.index_map.size_global * self.W.dofmap.index_map_bs)
+
+    def set_displacement(self, field: Callable[[np.ndarray], np.ndarray]) -> None:
+        """Interpolate a numpy field into the displacement part of the state (the pressure is left)."""
+        if self.p is None:
+            self.state.interpolate(field)
+            return
+        V, to_state = self.W_u.collapse()
+        g = dolfinx.fem.Function(V)
+        g.interpolate(field)
+        self.state.x.array[np.asarray(to_state)] = g.x.array
+        self.state.x.scatter_forward()
+
+    def displacement_values(self) -> tuple[np.ndarray, np.ndarray]:
+        """(dof coordinates (n, 2), displacement values (n, 2)) at the owned displacement nodes."""
+        if self.p is None:
+            V, values = self.W, self.state.x.array
+        else:
+            V, to_state = self.W_u.collapse()
+            values = self.state.x.array[np.asarray(to_state)]
+        n_owned = V.dofmap.index_map.size_local
+        return V.tabulate_dof_coordinates()[:n_owned, :2], values.reshape(-1, 2)[:n_owned].copy()
 
 
 def build(mesh: Any, cell_tags: Any, material_of_tag: dict[int, Material], degree: int,
-          load: Callable[[Any, Any, Any], Any] | None, dirichlet: list[tuple[Any, Any, Any]]) -> Problem:
-    """The production weak form (energy of :mod:`suture_fem.materials` on the kinematics of
-    :mod:`suture_fem.kinematics`, residual = its Gateaux derivative, quadrature degree of
-    :func:`suture_fem.physics.quadrature_degree`) on a verification mesh.
+          load: Callable[[Any, Any, Any], Any] | None, dirichlet: list[tuple[Any, Any, Any]],
+          formulation: str = "displacement") -> Problem:
+    """The production weak form on a verification mesh.
+
+    The elastic terms come from :func:`suture_fem.effects.elastic_terms` (the plain displacement
+    form, or the mixed displacement-pressure form of ``effects.incompressibility = "mixed"``) on the
+    kinematics of :mod:`suture_fem.kinematics`, with the quadrature degree of
+    :func:`suture_fem.physics.quadrature_degree`; residual = Gateaux derivative of the potential
+    terms plus the pressure equation, Jacobian = its derivative.
 
     Args:
-        material_of_tag: cell tag -> material.
+        material_of_tag: cell tag -> material; tags are those of :data:`suture_fem.physics.REGION_OF_TAG`
+            (1 hypodermis, 2 dermis, 3 epidermis, 4 thread), one material per region.
         load: ``load(v, x, weight)`` -> UFL linear form of the external load (None: no load).
         dirichlet: (where, component or None, value) with ``where`` a boundary marker on (r, z), and
             ``value`` a callable of the dof coordinates (whole vector) or a number (one component).
     """
-    V = compat.vector_space(mesh, degree)
-    u = dolfinx.fem.Function(V, name="displacement")
-    v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
+    effects = Effects(incompressibility=formulation)
+    if effects.mixed:
+        W = compat.mixed_space(mesh, degree, degree - 1)
+        W_u = W.sub(0)
+    else:
+        W = W_u = compat.vector_space(mesh, degree)
+    state = dolfinx.fem.Function(W, name="state")
+    test = ufl.TestFunction(W)
+
+    def displacement(w: Any) -> Any:
+        return ufl.as_vector([w[0], w[1]]) if effects.mixed else w
+
     x = ufl.SpatialCoordinate(mesh)
-    F = kinematics.deformation_gradient(u, x)
     weight = kinematics.volume_weight(x)
     dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags,
                      metadata={"quadrature_degree": quadrature_degree(degree)})
-    energy = sum(mat.energy(F) * weight * dx(tag) for tag, mat in material_of_tag.items())
-    residual = ufl.derivative(energy, u, v)
+    region_tags: dict[str, tuple[int, ...]] = {}
+    materials: dict[str, Material] = {}
+    for tag, material in material_of_tag.items():
+        region = REGION_OF_TAG[tag]
+        region_tags[region] = region_tags.get(region, ()) + (tag,)
+        materials[region] = material
+    u, v = displacement(state), displacement(test)
+    p, q = (state[2], test[2]) if effects.mixed else (None, None)
+    ctx = FormContext(w=state, u=u, p=p, v=v, q=q, test=test, x=x, weight=weight, dx=dx, ds=None, materials=materials,
+                      region_tags=region_tags)
+    terms = Terms()
+    elastic_terms(ctx, effects, terms)
+    residual = ufl.derivative(sum(terms.potential.values()), state, test)
+    for form in terms.residual.values():
+        residual = residual + form
     if load is not None:
         residual = residual - load(v, x, weight)
-    jacobian = ufl.derivative(residual, u, du)
+    jacobian = ufl.derivative(residual, state, ufl.TrialFunction(W))
     bcs = []
     for where, component, value in dirichlet:
-        space = V if component is None else V.sub(component)
-        dofs = _boundary_dofs(space, mesh, where)
+        facets = dolfinx.mesh.locate_entities_boundary(mesh, mesh.topology.dim - 1, where)
         if component is None:
+            V = W_u.collapse()[0] if effects.mixed else W_u
             g = dolfinx.fem.Function(V)
             g.interpolate(value)
-            bcs.append(dolfinx.fem.dirichletbc(g, dofs))
+            if effects.mixed:
+                dofs = dolfinx.fem.locate_dofs_topological((W_u, V), mesh.topology.dim - 1, facets)
+                bcs.append(dolfinx.fem.dirichletbc(g, dofs, W_u))
+            else:
+                dofs = dolfinx.fem.locate_dofs_topological(W_u, mesh.topology.dim - 1, facets)
+                bcs.append(dolfinx.fem.dirichletbc(g, dofs))
         else:
-            bcs.append(dolfinx.fem.dirichletbc(PETSc.ScalarType(value), dofs, V.sub(component)))
-    return Problem(mesh=mesh, V=V, u=u, x=x, residual=residual, jacobian=jacobian, bcs=bcs)
+            sub = W_u.sub(component)
+            dofs = dolfinx.fem.locate_dofs_topological(sub, mesh.topology.dim - 1, facets)
+            bcs.append(dolfinx.fem.dirichletbc(PETSc.ScalarType(value), dofs, sub))
+    return Problem(mesh=mesh, W=W, W_u=W_u, state=state, u=u, p=p, x=x, residual=residual, jacobian=jacobian,
+                   bcs=bcs)
 
 
 def solve(problem: Problem, step_tol: float = 1e-11, max_iterations: int = 30) -> int:
-    """Newton's method (direct LU) from the current state of ``problem.u``; returns the iterations.
+    """Newton's method (direct LU) from the current ``problem.state``; returns the iterations.
 
     Converged when a Newton correction is below ``step_tol`` times the solution (quadratic
     convergence then leaves an algebraic error far below any discretisation error measured here).
@@ -202,7 +265,7 @@ def solve(problem: Problem, step_tol: float = 1e-11, max_iterations: int = 30) -
     ksp.setType("preonly")
     ksp.getPC().setType("lu")
     ksp.getPC().setFactorSolverType("mumps")
-    x = compat.function_vector(problem.u)
+    x = compat.function_vector(problem.state)
     dx = x.copy()
     try:
         for it in range(1, max_iterations + 1):
@@ -251,17 +314,27 @@ def _numpy_field(exact: ExactField) -> Callable[[np.ndarray], np.ndarray]:
     return field
 
 
+def _weighted_norm(problem: Problem, integrand: Any) -> float:
+    """sqrt(int integrand 2 pi r dr dz) with the high quadrature degree (collective)."""
+    dx = ufl.Measure("dx", domain=problem.mesh, metadata={"quadrature_degree": HIGH_QUADRATURE})
+    form = dolfinx.fem.form(integrand * kinematics.volume_weight(problem.x) * dx)
+    return math.sqrt(problem.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
+
+
 def weighted_errors(problem: Problem, exact: ExactField) -> tuple[float, float]:
     """(L2, H1 seminorm) of u_h - u*, both weighted by 2 pi r; the H1 part includes (e_r / r)^2."""
-    x, u = problem.x, problem.u
-    e = u - ufl.as_vector(exact(x, ufl))
-    weight = kinematics.volume_weight(x)
-    dx = ufl.Measure("dx", domain=problem.mesh, metadata={"quadrature_degree": HIGH_QUADRATURE})
-    l2 = ufl.inner(e, e) * weight * dx
-    h1 = (ufl.inner(ufl.grad(e), ufl.grad(e)) + (e[0] / x[0]) ** 2) * weight * dx
-    comm = problem.comm
-    return tuple(math.sqrt(comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(f)), op=MPI.SUM))
-                 for f in (l2, h1))  # type: ignore[return-value]
+    x = problem.x
+    e = problem.u - ufl.as_vector(exact(x, ufl))
+    return (_weighted_norm(problem, ufl.inner(e, e)),
+            _weighted_norm(problem, ufl.inner(ufl.grad(e), ufl.grad(e)) + (e[0] / x[0]) ** 2))
+
+
+def pressure_error(problem: Problem, material: Material, exact: ExactField) -> float:
+    """Weighted L2 error of the mixed formulation's pressure against p* = U'(J(u*))."""
+    x = problem.x
+    J = ufl.variable(ufl.det(kinematics.deformation_gradient(ufl.as_vector(exact(x, ufl)), x)))
+    p_star = ufl.diff(material.volumetric(J), J)
+    return _weighted_norm(problem, (problem.p - p_star) ** 2)
 
 
 @dataclass
@@ -271,13 +344,16 @@ class ManufacturedResult:
     l2: float
     h1: float
     newton_iterations: int
+    pressure_l2: float | None = None
 
 
 def manufactured_solve(comm: Any, material: Material, tag: int, exact: ExactField, degree: int, n: int,
-                       size: float) -> ManufacturedResult:
+                       size: float, formulation: str = "displacement") -> ManufacturedResult:
     """Solve the manufactured problem on [0, size]^2 (the axis included) with n x n squares, two triangles each.
 
     Dirichlet u = u* on r = size, z = 0 and z = size; u_r = 0 on the axis; body force -Div P(u*).
+    With the mixed formulation the exact pressure is p* = U'(J(u*)), which the body force already
+    balances (P_iso + p* J F^-T is the full P), and its error is returned too.
     """
     mesh, tags = rectangle(comm, [0.0, size], (0.0, size), [n], n)
     mesh_tags = dolfinx.mesh.meshtags(mesh, 2, tags.indices, np.full_like(tags.values, tag))
@@ -291,12 +367,13 @@ def manufactured_solve(comm: Any, material: Material, tag: int, exact: ExactFiel
         (lambda x: (np.abs(x[0] - size) < tol) | (np.abs(x[1]) < tol) | (np.abs(x[1] - size) < tol), None,
          _numpy_field(exact)),
         (lambda x: np.abs(x[0]) < tol, 0, 0.0),
-    ])
-    problem.u.interpolate(_numpy_field(exact))
+    ], formulation)
+    problem.set_displacement(_numpy_field(exact))
     its = solve(problem)
     l2, h1 = weighted_errors(problem, exact)
+    p_l2 = pressure_error(problem, material, exact) if problem.p is not None else None
     cells = comm.allreduce(mesh.topology.index_map(2).size_local)
-    return ManufacturedResult(cells=cells, h=size / n, l2=l2, h1=h1, newton_iterations=its)
+    return ManufacturedResult(cells=cells, h=size / n, l2=l2, h1=h1, newton_iterations=its, pressure_l2=p_l2)
 
 
 def observed_rates(h: Sequence[float], err: Sequence[float]) -> list[float]:
@@ -469,12 +546,10 @@ def tube_solve(comm: Any, exact: TubeShear, tags: Sequence[int], degree: int, ce
 
     problem = build(mesh, cell_tags, dict(zip(tags, exact.materials)), degree, None,
                     [(on_boundary, None, exact_field)])
-    problem.u.interpolate(exact_field)
+    problem.set_displacement(exact_field)
     its = solve(problem)
     gradient_error = _tube_gradient_error(problem, exact, tags, cell_tags)
-    n_owned = problem.V.dofmap.index_map.size_local
-    xy = problem.V.tabulate_dof_coordinates()[:n_owned, :2]
-    uh = problem.u.x.array.reshape(-1, 2)[:n_owned]
+    xy, uh = problem.displacement_values()
     return TubeResult(
         comm=comm, r=xy[:, 0], z=xy[:, 1], u_r=uh[:, 0].copy(), u_z=uh[:, 1].copy(), w=exact.w(xy[:, 0]),
         core_displacement=exact.core_displacement, gradient_error=gradient_error,

@@ -4,11 +4,12 @@ and a failure on one rank ends every rank with one message instead of a hang."""
 from __future__ import annotations
 
 import json
+import subprocess
 
 import numpy as np
 import pytest
 
-from tests.conftest import cli, sets
+from tests.conftest import PYTHON, ROOT, cli, mpi_env, mpirun, sets
 from tests.mpi.conftest import REL, SCENE
 
 pytestmark = pytest.mark.mpi
@@ -71,3 +72,41 @@ def test_a_bad_scene_stops_every_rank_with_one_line():
     assert proc.returncode == 2
     errors = [line for line in proc.stderr.splitlines() if line.startswith("suture-fem: error:")]
     assert len(errors) == 1 and "geometry.cones" in errors[0], proc.stderr
+
+
+ONE_CONE = SCENE + ["geometry.cones=1"]
+#: Under mpirun -n 4: which ranks own cone cells, then the solve on the world communicator.
+PARTITIONED_RUN = """
+import json, sys
+import numpy as np
+from mpi4py import MPI
+from suture_fem import mesh
+from suture_fem.run import run_scene
+from suture_fem.scene import load_scene
+
+comm = MPI.COMM_WORLD
+scene = load_scene("paper", sys.argv[2:])
+tagged = mesh.create_mesh(comm, scene)
+owned = tagged.mesh.topology.index_map(2).size_local
+ct = tagged.cell_tags
+cones = comm.gather(int(np.sum(ct.values[ct.indices < owned] == mesh.CONE)), root=0)
+run_scene(scene, sys.argv[1], comm)
+if comm.rank == 0:
+    json.dump(cones, open(sys.argv[1] + "/cone_cells_per_rank.json", "w"))
+"""
+
+
+def test_four_ranks_with_one_owning_no_cone_cell(tmp_path):
+    """Maxima over a region are reduced over every rank, also over ranks that own none of its cells."""
+    serial = tmp_path / "serial"
+    proc = cli(["run", "paper", *sets(ONE_CONE), "--out", str(serial)], timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    script = tmp_path / "partitioned_run.py"
+    script.write_text(PARTITIONED_RUN)
+    out = tmp_path / "four"
+    proc = subprocess.run(mpirun(4) + [PYTHON, str(script), str(out), *ONE_CONE], capture_output=True, text=True,
+                          env=mpi_env(), cwd=ROOT, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    cones = json.loads((out / "cone_cells_per_rank.json").read_text())
+    assert min(cones) == 0 < max(cones), f"premise: some rank should own no cone cell, got {cones}"
+    assert_same_state(json.loads((serial / "results.json").read_text()), json.loads((out / "results.json").read_text()))

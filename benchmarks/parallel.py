@@ -1,0 +1,153 @@
+"""Benchmark: one scene on 1 and 2 MPI ranks, and sweep throughput for two ways of using 2 ranks.
+
+1. One scene (default: the paper scene, 4 cones, degree 2, 4 N) solved by `suture-fem run` under
+   `mpirun -n 1` and `-n 2`: wall time, speed-up, and the peak resident memory of every rank.
+2. One sweep (default: 1-4 cones x 1, 2 N at degree 1, 8 scenes) under `mpirun -n 2` as one group
+   of 2 ranks (`--ranks-per-scene 2`) and as two groups of 1 rank: scenes per minute.
+
+Each measurement is a fresh `mpirun`, so form compilation is served from the FFCx cache (warm it
+with one run first: `--warmup`). The load average is recorded before and after every measurement:
+on a shared machine it says how much of the machine the benchmark really had.
+
+    .venv/bin/python benchmarks/parallel.py [--scene paper --set KEY=VALUE ...] [--sweep-cones 1 2 3 4]
+        [--skip-scene] [--skip-sweep] [--out benchmarks/out/parallel.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from suture_fem.io import write_json  # noqa: E402
+
+
+def mpi_env() -> dict[str, str]:
+    env = dict(os.environ)
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1")
+    return env
+
+
+def worker(argv: list[str]) -> int:
+    """Run `suture-fem ARGV` on every rank, then write every rank's peak memory to $BENCH_MEMORY."""
+    from mpi4py import MPI
+
+    from suture_fem.cli import main
+
+    code = main(argv)
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
+    peaks = MPI.COMM_WORLD.gather(round(peak_mb, 1), root=0)
+    if MPI.COMM_WORLD.rank == 0:
+        write_json(os.environ["BENCH_MEMORY"], {"peak_rss_mb_per_rank": peaks})
+    return code
+
+
+def launch(ranks: int, argv: list[str], tmp: Path, ok: tuple[int, ...] = (0,)) -> dict:
+    """`mpirun -n RANKS suture-fem ARGV` through the worker; wall time, memory and load around it."""
+    mpirun = shutil.which("mpirun") or "mpirun"
+    memory = tmp / "memory.json"
+    cmd = [mpirun, "-n", str(ranks), "--allow-run-as-root", "--oversubscribe", sys.executable, __file__,
+           "--worker", *argv]
+    load_before = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env={**mpi_env(), "BENCH_MEMORY": str(memory)})
+    wall = time.perf_counter() - t0
+    if proc.returncode not in ok:
+        raise SystemExit(f"{' '.join(argv)} on {ranks} rank(s) exited {proc.returncode}:\n{proc.stderr}")
+    return {"ranks": ranks, "process_wall_s": round(wall, 2), **json.loads(memory.read_text()),
+            "load_1min_before": round(load_before, 2), "load_1min_after": round(os.getloadavg()[0], 2)}
+
+
+def bench_scene(scene: str, overrides: list[str], tmp: Path) -> list[dict]:
+    rows = []
+    sets = [a for o in overrides for a in ("--set", o)]
+    for ranks in (1, 2):
+        out = tmp / f"scene{ranks}"
+        row = launch(ranks, ["run", scene, *sets, "--out", str(out)], tmp)
+        res = json.loads((out / "results.json").read_text())
+        t = res["timings_s"]
+        row.update(dofs=res["dofs"], newton_iterations=res["newton_iterations"], solve_wall_s=round(res["wall_time_s"], 2),
+                   assembly_s=t["assembly"], linear_solve_s=t["linear_solve"], usum_mm=res["usum_mm"])
+        rows.append(row)
+    for row in rows:
+        row["speedup"] = round(rows[0]["solve_wall_s"] / row["solve_wall_s"], 2)
+    return rows
+
+
+def bench_sweep(cones: list[int], forces: list[float], common: list[str], tmp: Path) -> list[dict]:
+    lines = ['base = "paper"', "[set]"] + [f'"{k}" = {v}' for k, v in (o.split("=", 1) for o in common)]
+    lines += ["[grid]", f'"geometry.cones" = {cones}', f'"loading.force_n" = {forces}']
+    path = tmp / "throughput.toml"
+    path.write_text("\n".join(lines) + "\n")
+    rows = []
+    for k in (2, 1):
+        out = tmp / f"sweep_k{k}"
+        row = launch(2, ["sweep", str(path), "--out", str(out), "--ranks-per-scene", str(k)], tmp, ok=(0, 3))
+        summary = json.loads((out / "summary.json").read_text())
+        last = json.loads((out / "last_run.json").read_text())
+        n = len(summary["rows"])
+        row.update(layout=f"{2 // k} group(s) of {k} rank(s)", scenes=n, counts=summary["counts"],
+                   sweep_wall_s=last["wall_time_s"], scenes_per_min=round(60.0 * n / last["wall_time_s"], 2),
+                   scenes_per_min_incl_startup=round(60.0 * n / row["process_wall_s"], 2))
+        rows.append(row)
+    return rows
+
+
+def table(rows: list[dict], cols: list[str]) -> str:
+    out = [" | ".join(cols)]
+    out += [" | ".join(str(r.get(c, "")) for c in cols) for r in rows]
+    return "\n".join(out)
+
+
+def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "--worker":
+        sys.exit(worker(sys.argv[2:]))
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scene", default="paper")
+    ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                    help="overrides of the single scene (default: none, the paper scene as it is)")
+    ap.add_argument("--sweep-cones", type=int, nargs="+", default=[1, 2, 3, 4])
+    ap.add_argument("--sweep-forces", type=float, nargs="+", default=[1.0, 2.0])
+    ap.add_argument("--sweep-set", action="append", default=None, metavar="KEY=VALUE",
+                    help="overrides of every sweep scene (default: mesh.degree=1)")
+    ap.add_argument("--warmup", action="store_true", help="solve each scene kind once first (fills the form cache)")
+    ap.add_argument("--skip-scene", action="store_true")
+    ap.add_argument("--skip-sweep", action="store_true")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks/out/parallel.json"))
+    args = ap.parse_args()
+    sweep_set = args.sweep_set or ["mesh.degree=1"]
+    record: dict = {"cpus": os.cpu_count(), "scene": args.scene, "overrides": args.overrides,
+                    "sweep": {"cones": args.sweep_cones, "forces_n": args.sweep_forces, "set": sweep_set}}
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = Path(tmp_name)
+        if args.warmup:
+            launch(1, ["run", args.scene, *[a for o in args.overrides for a in ("--set", o)], "--out", str(tmp / "w1")], tmp)
+            launch(1, ["run", "paper", *[a for o in sweep_set for a in ("--set", o)], "--out", str(tmp / "w2")], tmp)
+        if not args.skip_scene:
+            record["one_scene"] = bench_scene(args.scene, args.overrides, tmp)
+            print(f"One scene ({args.scene} {' '.join(args.overrides)}), {os.cpu_count()} CPUs:")
+            print(table(record["one_scene"], ["ranks", "dofs", "solve_wall_s", "speedup", "assembly_s",
+                                              "linear_solve_s", "peak_rss_mb_per_rank", "load_1min_before",
+                                              "load_1min_after"]))
+        if not args.skip_sweep:
+            record["sweep_throughput"] = bench_sweep(args.sweep_cones, args.sweep_forces, sweep_set, tmp)
+            print(f"\nSweep throughput on 2 ranks ({len(args.sweep_cones) * len(args.sweep_forces)} scenes):")
+            print(table(record["sweep_throughput"], ["layout", "scenes", "sweep_wall_s", "scenes_per_min",
+                                                     "scenes_per_min_incl_startup", "peak_rss_mb_per_rank",
+                                                     "load_1min_before", "load_1min_after"]))
+    write_json(args.out, record)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -26,8 +26,8 @@ Under ``mpirun -n N ... --ranks-per-scene K`` the world communicator is split in
 round-robin (``--schedule static``) or taken one at a time from a counter in an MPI window
 (``--schedule dynamic``: a group that finishes early takes the next scene).
 
-Every scene has a folder ``OUT/NNN-HASH`` (position in the sweep, and a hash of the fully
-resolved scene, or of its overrides when it does not validate). It is filled in a hidden staging
+Every scene has a folder ``OUT/NNN-HASH`` (position in the sweep, and a hash of the base scene's
+content and the scene's overrides). It is filled in a hidden staging
 folder and renamed into place when the scene is finished, so it is complete or absent; it holds
 ``results.json`` (and the fields if asked) and ``status.json``: status (converged, stopped,
 invalid, error), exit code, message, the reproducing command, and ``solve_count``. A scene that
@@ -193,19 +193,24 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
     common = [f"{k}={toml_value(v)}" for k, v in _flatten(raw.get("set", {}), f"sweep file {path}: [set]").items()]
     common += list(extra or [])
     out_dir = Path(out) if out is not None else Path(raw.get("out") or f"results/{path.stem}")
-    cases = [_case(i, base, common, v) for i, v in enumerate(variations)]
+    try:
+        base_scene, _ = scenes.read_scene_source(base)
+    except SceneError as exc:
+        raise SweepError(f"sweep file {path}: key base: {exc}") from None
+    cases = [_case(i, base, base_scene, common, v) for i, v in enumerate(variations)]
     varied_keys = list(dict.fromkeys(k for c in cases for k in c.varied))
     return Sweep(path=path, base=base, out=out_dir, cases=cases, varied_keys=varied_keys)
 
 
-def _case(index: int, base: str, common: list[str], varied: dict[str, Any]) -> Case:
+def _case(index: int, base: str, base_scene: dict[str, Any], common: list[str], varied: dict[str, Any]) -> Case:
+    """One scene; its folder name hashes what the user wrote (the base scene's content and the
+    overrides), so it survives a new suture_fem version that adds keys with defaults."""
     overrides = tuple(common + [f"{k}={toml_value(v)}" for k, v in varied.items()])
     try:
         scene, error = scenes.load_scene(base, list(overrides)), None
-        digest = _short_hash(scene)
     except SceneError as exc:
         scene, error = None, str(exc)
-        digest = _short_hash({"base": base, "overrides": overrides})
+    digest = _short_hash({"base": base_scene, "overrides": overrides})
     return Case(index, varied, overrides, scene, error, f"{index:03d}-{digest}")
 
 

@@ -66,3 +66,17 @@ def test_a_malformed_sweep_file_is_one_line_naming_the_key(tmp_path, text, key):
     with pytest.raises(SweepError, match=key) as err:
         load_sweep(write(tmp_path, text))
     assert "\n" not in str(err.value) and err.value.exit_code == 2
+
+
+def test_folder_names_follow_the_base_scene_file(tmp_path):
+    (tmp_path / "base.toml").write_text("[geometry]\ncones = 2\n")
+    text = 'base = "base.toml"\n[grid]\n"loading.force_n" = [1.0]\n'
+    before = load_sweep(write(tmp_path, text)).cases[0]
+    assert before.scene["geometry"]["cones"] == 2
+    (tmp_path / "base.toml").write_text("[geometry]\ncones = 3\n")
+    assert load_sweep(write(tmp_path, text)).cases[0].name != before.name
+
+
+def test_an_unreadable_base_scene_is_a_sweep_error(tmp_path):
+    with pytest.raises(SweepError, match="base"):
+        load_sweep(write(tmp_path, 'base = "missing.toml"\n[grid]\n"geometry.cones" = [1]\n'))

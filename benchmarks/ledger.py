@@ -4,7 +4,7 @@ Runs `suture-fem convergence` for each ladder below (every rung in its own proce
 solved in OUT are reused, so an interrupted run resumes), prints a summary table and writes
 OUT/summary.json and OUT/summary.md (the tables of every ledger, for docs/ledger.md).
 
-    .venv/bin/python benchmarks/ledger.py [--out benchmarks/out/ledger] [--only paper]
+    .venv/bin/python benchmarks/ledger.py [--out benchmarks/out/ledger] [--only paper] [--summary-only]
 
 The finest rungs are slow on a 2-core machine (degree 1 refinement 2: about 100k cells; degree 2 is
 stopped at refinement 1): the whole benchmark takes 30-60 minutes there.
@@ -70,9 +70,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(ROOT / "benchmarks/out/ledger"))
     ap.add_argument("--only", choices=list(LADDERS), action="append", help="run only these ladders")
+    ap.add_argument("--summary-only", action="store_true", help="solve nothing: summarise the ledgers in OUT")
     args = ap.parse_args()
     out = Path(args.out)
-    ledgers = {name: run_ladder(name, out) for name in (args.only or LADDERS)}
+    names = args.only or list(LADDERS)
+    if args.summary_only:
+        ledgers = {name: json.loads((out / name / "ledger.json").read_text()) for name in names
+                   if (out / name / "ledger.json").exists()}
+    else:
+        ledgers = {name: run_ladder(name, out) for name in names}
     rows = [r for name, ledger in ledgers.items() for r in summary_rows(name, ledger)]
     header = ["ledger", "F (N)", "rung", "dofs", "wall (s)", "peak MB", "USUM mm", "SEQV tissue", "SEQV out-rim",
               "EPTOEQV"]

@@ -87,12 +87,11 @@ class Quantity:
 
 
 def _lookup(record: dict[str, Any], dotted: str) -> Any:
-    node: Any = record
-    for part in dotted.split("."):
-        if not isinstance(node, dict) or part not in node:
-            return None
-        node = node[part]
-    return node
+    """The value at a dotted path, None where the path does not exist."""
+    try:
+        return scenes.get(record, dotted)
+    except (KeyError, TypeError):
+        return None
 
 
 QUANTITIES = (
@@ -166,6 +165,7 @@ class Rung:
     wall_time_s: float | None = None  # inside run_scene: meshing, forms, load ramp, outputs
     process_time_s: float | None = None  # the whole `suture-fem run` process (imports included)
     cpu_time_s: float | None = None  # user + system CPU of the rung (less sensitive to a shared machine)
+    compile_time_s: float | None = None  # form compilation inside the rung (near 0 when the disk cache has the forms)
     peak_memory_mb: float | None = None
     memory_note: str = ""
     load_average: list[float] | None = None  # 1-minute load average before and after (a shared machine slows wall time)
@@ -189,6 +189,7 @@ def _collect(rung: Rung, results: dict[str, Any]) -> None:
     """The rung's cost and its outputs at every reported force."""
     rung.status = results.get("status", "unknown")
     rung.wall_time_s = results.get("wall_time_s")
+    rung.compile_time_s = results.get("timings_s", {}).get("form_compilation")
     rung.dofs = results.get("dofs")
     rung.cells = results.get("cells")
     rung.newton_iterations = results.get("newton_iterations")
@@ -286,20 +287,32 @@ class Ladder:
         return out
 
 
-def solve_ladder(ladder: Ladder, out: Path, comm: Any, inprocess: bool, redo: bool) -> list[Rung]:
-    """Solve (or reuse) every rung; returns them in order."""
+def solve_ladder(ladder: Ladder, out: Path, comm: Any, inprocess: bool, redo: bool,
+                 report_only: bool = False) -> list[Rung]:
+    """Solve (or reuse) every rung; returns them in order.
+
+    ``report_only``: solve nothing; take every rung found in ``out`` as it is, even when its scene is
+    no longer the one the current defaults resolve to (the ledger then says so).
+    """
     done = []
     plan = ladder.rungs()
     for i, (rung, scene) in enumerate(plan, 1):
         folder = out / "rungs" / rung.name
         record = folder / "rung.json"
-        if not redo and record.exists():
+        if (report_only or not redo) and record.exists():
             old = read_json(record)
-            if old.get("status") == "converged" and old.get("scene") == json.loads(json.dumps(scene)):
-                kept = Rung(**{k: v for k, v in old.items() if k != "scene"})
+            same = old.get("scene") == json.loads(json.dumps(scene))
+            if report_only or (old.get("status") == "converged" and same):
+                kept = Rung(**{k: v for k, v in old.items() if k in Rung.__dataclass_fields__})
+                if (folder / "results.json").exists():
+                    _collect(kept, read_json(folder / "results.json"))
+                if not same:
+                    kept.memory_note += "; solved with a scene that differs from today's resolved one"
                 log.info("convergence: [%d/%d] %s reused from %s", i, len(plan), rung.label, record)
                 done.append(kept)
                 continue
+        if report_only:
+            continue
         if comm.rank == 0:
             folder.mkdir(parents=True, exist_ok=True)
         comm.barrier()
@@ -439,21 +452,24 @@ def markdown(title: str, ladder: Ladder, rungs: list[Rung], analysis: dict[str, 
         "",
         "## Cost of each rung",
         "",
-        "| rung | cells | dofs | wall time (s) | CPU time (s) | process (s) | peak memory (MB) | Newton its | load steps "
-        "| load average | status |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- |",
+        "| rung | cells | dofs | wall time (s) | CPU time (s) | process (s) | forms (s) | peak memory (MB) | Newton its "
+        "| load steps | load average | status |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- |",
     ]
     for r in rungs:
         load = "-" if not r.load_average else " / ".join(f"{v:.1f}" for v in r.load_average)
         lines.append(
             f"| {r.label} | {r.cells or '-'} | {r.dofs or '-'} | {_num(r.wall_time_s)} | {_num(r.cpu_time_s)} | "
-            f"{_num(r.process_time_s)} | {_num(r.peak_memory_mb, 0)} | {r.newton_iterations or '-'} | "
+            f"{_num(r.process_time_s)} | {_num(r.compile_time_s, 2)} | {_num(r.peak_memory_mb, 0)} | "
+            f"{r.newton_iterations or '-'} | "
             f"{r.load_steps or '-'} | {load} | {r.status} |"
         )
     notes = sorted({r.memory_note for r in rungs if r.memory_note})
     lines += ["", "Wall time: inside `run` (meshing, forms, load ramp, outputs); CPU time and process time: the whole "
-              "command; load average: the machine's 1-minute load before and after the rung (above the core count, "
-              "other work was slowing the wall time). Memory: " + ("; ".join(notes) or "-") + ".", ""]
+              "command; forms: the part of the wall time spent compiling forms (near 0: they came from the disk "
+              "cache, so no rung pays for another's); load average: the machine's 1-minute load before and after "
+              "the rung (above the core count, other work was slowing the wall time). Memory: "
+              + ("; ".join(notes) or "-") + ".", ""]
     for fk, per_q in analysis.items():
         lines += [f"## At {fk} N: value (error against the reference)", ""]
         header = "| rung | " + " | ".join(p["label"] for p in per_q.values()) + " |"
@@ -691,6 +707,8 @@ def register(subparsers: Any, scene_args: Any) -> None:
                    help="time axis of the plot: wall (default) or cpu (robust on a shared machine)")
     p.add_argument("--inprocess", action="store_true", help="solve the rungs in this process (automatic under mpirun)")
     p.add_argument("--redo", action="store_true", help="solve every rung again even if its folder holds a result")
+    p.add_argument("--report-only", action="store_true",
+                   help="solve nothing: rebuild the ledger from the rungs already in the output folder")
     p.set_defaults(handler=main)
 
 
@@ -723,7 +741,7 @@ def main(args: argparse.Namespace, comm: Any) -> int:
             raise SceneError(f"--cap {text!r}: expected DEGREE=LEVEL, for example 2=1")
         caps[int(degree)] = int(level)
     ladder = Ladder(args.scene, list(args.overrides), degrees, refinements, formulations, forces, args.refine, caps)
-    rungs = solve_ladder(ladder, out, comm, args.inprocess, args.redo)
+    rungs = solve_ladder(ladder, out, comm, args.inprocess, args.redo, args.report_only)
     analysis = analyse(rungs, forces)
     title = args.title or name
     if comm.rank == 0:

@@ -74,9 +74,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem import compat, kinematics
+from suture_fem.effects import Effects, FormContext, Terms, elastic_terms
 from suture_fem.kinematics import THETA, R, Z
 from suture_fem.materials import Gent, Material, Yeoh, first_piola
-from suture_fem.effects import Effects, FormContext, Terms, elastic_terms
 from suture_fem.physics import REGION_OF_TAG, quadrature_degree
 
 #: An exact displacement written once for both UFL and numpy: (x, m) -> [u_r, u_z], with x = (r, z)

@@ -1,11 +1,13 @@
-"""Pictures for the demos: a solved state as a full section, rendered off-screen with pyvista.
+"""Pictures of any field of a solved state for the demos, rendered off-screen with pyvista.
 
 Not a demo (the leading underscore keeps it out of the demo glob): the demos import it from their
-own folder. The axisymmetric half-section (r, z) is mirrored about the axis into a full section
-with z horizontal (the pulled end on the right), like the paper's Figures 2 and 3, and drawn on the
-deformed shape at true scale. pyvista renders the field with a parallel camera whose view is set
-to known bounds, so the image is placed on matplotlib axes with its extent in mm: labelled axes and
-a colour bar with units come from matplotlib.
+own folder. The grid comes from :mod:`suture_fem.plots` (``field_grid`` + ``full_section``: the
+half-section mirrored about the axis into a full section, z horizontal with the pulled end on the
+right, on the deformed shape at true scale). ``plots.render_usum`` draws USUM contours into PNG
+files; here any point or cell field (the von Mises stress on a logarithmic scale, the tissue alone,
+a zoomed frame) is drawn into a figure the notebook shows. pyvista renders with a parallel camera
+framed on known bounds, so the image sits on matplotlib axes with its extent in mm: labelled axes
+and a colour bar with units come from matplotlib.
 """
 
 from __future__ import annotations
@@ -22,36 +24,19 @@ import matplotlib.colors as mcolors  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import pyvista as pv  # noqa: E402
 
-from suture_fem import compat  # noqa: E402
 from suture_fem import mesh as meshmod  # noqa: E402
+from suture_fem import plots  # noqa: E402
 
 pv.OFF_SCREEN = True
 SUTURE_GREY = "#9a9a9a"
 
 
-def section_grid(outputs: Any, deformed: bool = True) -> pv.UnstructuredGrid:
-    """The solved state of ``outputs`` (the object run_scene's ``on_report`` hands over) as a full
-    section in mm: points (z, r), point data ``usum_mm``, cell data ``von_mises_kpa``, ``eptoeqv``
-    and ``suture`` (1 on thread and cone cells)."""
-    physics = outputs.physics
-    cells, types, x = compat.vtk_mesh(physics.V)
-    u = physics.u.x.array.reshape(-1, 2) / meshmod.MM
-    tags = np.zeros(len(types), dtype=np.int32)
-    tags[physics.tagged.cell_tags.indices] = physics.tagged.cell_tags.values
-    fields = outputs.cell_maxima()
-    halves = []
-    for sign in (1.0, -1.0):
-        pts = np.c_[x[:, 1], sign * x[:, 0], np.zeros(len(x))] / meshmod.MM
-        if deformed:
-            pts[:, 0] += u[:, 1]
-            pts[:, 1] += sign * u[:, 0]
-        half = pv.UnstructuredGrid(cells, types, pts)
-        half.point_data["usum_mm"] = np.linalg.norm(u, axis=1)
-        half.cell_data["von_mises_kpa"] = fields["von_mises_pa"][: len(types)] / 1e3
-        half.cell_data["eptoeqv"] = fields["eptoeqv"][: len(types)]
-        half.cell_data["suture"] = np.isin(tags, meshmod.SUTURE).astype(np.int32)
-        halves.append(half)
-    return halves[0].merge(halves[1])
+def section(outputs: Any, deformed: bool = True) -> pv.UnstructuredGrid:
+    """The solved state of ``outputs`` (what run_scene's ``on_report`` hands over) as a full section
+    in mm: point data ``usum_mm``, cell data ``von_mises_kpa``, ``eptoeqv`` and ``region`` (cell tags)."""
+    grid = plots.full_section(plots.field_grid(outputs), deformed)
+    grid.cell_data["von_mises_kpa"] = grid.cell_data["von_mises_pa"] / 1e3
+    return grid
 
 
 def bounds_of(*grids: pv.DataSet, pad_mm: float = 0.3) -> tuple[float, float, float, float]:
@@ -79,11 +64,12 @@ def render(
     plotter = pv.Plotter(off_screen=True, window_size=(width, height))
     plotter.set_background("white")
     log = isinstance(norm, mcolors.LogNorm)
-    coloured = grid.threshold(0.5, scalars="suture", invert=True) if tissue_only else grid
+    suture = np.isin(grid.cell_data["region"], meshmod.SUTURE)
+    coloured = grid.extract_cells(np.flatnonzero(~suture)) if tissue_only else grid
     plotter.add_mesh(coloured, scalars=scalars, cmap=cmap, clim=(norm.vmin, norm.vmax), log_scale=log,
                      show_scalar_bar=False, interpolate_before_map=True)
     if tissue_only:
-        plotter.add_mesh(grid.threshold(0.5, scalars="suture"), color=SUTURE_GREY, show_scalar_bar=False)
+        plotter.add_mesh(grid.extract_cells(np.flatnonzero(suture)), color=SUTURE_GREY, show_scalar_bar=False)
     plotter.enable_parallel_projection()
     centre = ((z0 + z1) / 2, (r0 + r1) / 2)
     plotter.camera.focal_point = (*centre, 0.0)

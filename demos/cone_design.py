@@ -97,9 +97,10 @@ def solve(cones, kind="hollow", spacing=DEFAULT_SPACING):
         f"loading.force_n={FORCE_N}", "loading.report_forces_n=[]"])
 
     def keep(force_n, outputs):
-        if (kind == "hollow" and spacing == DEFAULT_SPACING and cones in PICTURE_CONES) or cones == 4:
-            deformed[key] = pic.section_grid(outputs)
-            undeformed[key] = pic.section_grid(outputs, deformed=False)
+        if kind == "hollow" and spacing == DEFAULT_SPACING and cones in PICTURE_CONES:
+            deformed[key] = pic.section(outputs)
+        if cones == 4 and spacing == DEFAULT_SPACING:
+            undeformed[key] = pic.section(outputs, deformed=False)
 
     t0 = time.perf_counter()
     res = run_scene(scene, OUT / f"{cones}_{kind}_{spacing:g}mm", comm, on_report=keep)

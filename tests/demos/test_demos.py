@@ -10,6 +10,8 @@ conclusions in their last code cells.
 from __future__ import annotations
 
 import os
+import shutil
+import subprocess
 import sys
 from pathlib import Path
 
@@ -28,6 +30,14 @@ KERNEL = "suture-fem"
 
 def test_demos_are_found():
     assert {"quickstart.py", "cone_design.py"} <= {p.name for p in DEMOS}
+
+
+def test_no_notebook_is_committed():
+    """Demos live as .py files only; executed notebooks (with outputs) stay out of git."""
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+    tracked = subprocess.run(["git", "ls-files", "*.ipynb"], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert tracked.stdout.split() == []
 
 
 def test_kernel_runs_this_environment():

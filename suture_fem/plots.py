@@ -70,6 +70,11 @@ def field_grid(state: Any) -> Any:
     cells, types, x = compat.vtk_mesh(V)
     num_owned = len(types)
     nodes_per_cell = len(cells) // max(num_owned, 1)
+    index_map = V.dofmap.index_map
+    # global node numbers, so that nodes shared between ranks become one point of the gathered grid
+    global_nodes = index_map.local_to_global(np.arange(len(x), dtype=np.int32))
+    connectivity = cells.reshape(-1, nodes_per_cell).astype(np.int64) if num_owned else np.zeros((0, 1), np.int64)
+    connectivity[:, 1:] = global_nodes[connectivity[:, 1:]]
     u_mm = u.x.array.reshape(-1, 2)[: len(x)] / meshmod.MM
     tags = np.zeros(num_owned, dtype=np.int32)
     ct = physics.tagged.cell_tags
@@ -78,33 +83,24 @@ def field_grid(state: Any) -> Any:
     cell_data = {"region": tags}
     if outputs is not None and outputs.tensor_exprs:
         cell_data.update({k: v[:num_owned] for k, v in outputs.cell_maxima().items()})
-    parts = comm.gather((cells.reshape(-1, nodes_per_cell) if num_owned else np.zeros((0, 1), np.int32),
-                         types, x[:, :2] / meshmod.MM, u_mm, cell_data), root=0)
+    parts = comm.gather((connectivity, types, global_nodes, x[:, :2] / meshmod.MM, u_mm, cell_data), root=0)
     if comm.rank != 0:
         return None
     pv = _pyvista()
-    all_cells, all_types, pts, disp, data = [], [], [], [], {k: [] for k in cell_data}
-    offset = 0
-    for c, t, p, d, cd in parts:
-        if len(t):
-            c = c.copy()
-            c[:, 1:] += offset
-            all_cells.append(c.ravel())
-            all_types.append(t)
-            for k in data:
-                data[k].append(cd[k])
-        offset += len(p)
-        pts.append(p)
-        disp.append(d)
-    rz = np.concatenate(pts)
-    u2 = np.concatenate(disp)
+    rz = np.zeros((index_map.size_global, 2))
+    u2 = np.zeros((index_map.size_global, 2))
+    for _, _, g, p, d, _ in parts:
+        rz[g], u2[g] = p, d
+    owned = [part for part in parts if len(part[1])]
+    all_cells = np.concatenate([part[0].ravel() for part in owned])
+    all_types = np.concatenate([part[1] for part in owned]).astype(np.uint8)
     # x = z (along the thread), y = r: the thread lies horizontally in the pictures.
     points = np.column_stack([rz[:, 1], rz[:, 0], np.zeros(len(rz))])
-    grid = pv.UnstructuredGrid(np.concatenate(all_cells), np.concatenate(all_types).astype(np.uint8), points)
+    grid = pv.UnstructuredGrid(all_cells, all_types, points)
     grid.point_data["u_mm"] = np.column_stack([u2[:, 1], u2[:, 0], np.zeros(len(u2))])
     grid.point_data["usum_mm"] = np.linalg.norm(u2, axis=1)
-    for k, v in data.items():
-        grid.cell_data[k] = np.concatenate(v)
+    for k in cell_data:
+        grid.cell_data[k] = np.concatenate([part[5][k] for part in owned])
     return grid
 
 

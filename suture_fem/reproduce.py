@@ -26,7 +26,8 @@ writes, under DIR (default ``results/reproduce``):
 The paper's SEQV values (0.2-2.5 MPa) are tissue stresses: the overall maximum of our model is the
 axial stress of the thread (about 20 MPa per newton), so SEQV is compared with the tissue maximum
 ``regions.tissue.seqv_pa``; the maximum outside ``output.rim_exclusion_mm`` of every cone corner
-(which, unlike the peak at a sharp rim, converges) is reported next to it, and likewise for EPTOEQV.
+(not singular, unlike the peak at a sharp rim, though still mesh-dependent at the meshes used here)
+is reported next to it, and likewise for EPTOEQV.
 """
 
 from __future__ import annotations
@@ -285,7 +286,7 @@ def _record(results: dict[str, Any] | None, force_n: float) -> dict[str, Any] | 
 
 
 def ours(results: dict[int, dict[str, Any]], cones: int, force_n: float, quantity: str) -> tuple[Any, Any]:
-    """(maximum, converging measure) of one quantity, as compared with the paper; None where not solved.
+    """(maximum, measure outside the rims) of one quantity, as compared with the paper; None where not solved.
 
     USUM: the maximum of |u| over the model (no second measure: it converges). SEQV and EPTOEQV: the
     tissue maximum, and the tissue maximum outside ``output.rim_exclusion_mm`` of every cone corner.
@@ -350,7 +351,8 @@ def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], 
                        "is the thread's axial stress, about 20 MPa per newton, not what the paper reports",
             "eptoeqv": "maximum equivalent Hencky strain over the tissue's quadrature points",
             "outside_rims": f"the same maximum over points farther than {scene['output']['rim_exclusion_mm']:g} mm "
-                            "from every cone corner (the peak at a sharp rim is a singularity; this converges)",
+                            "from every cone corner (the peak at a sharp rim is a singularity, this is not; both still "
+                            "change with the mesh, see docs/reproduction.md)",
         },
     }
 

@@ -302,6 +302,7 @@ def plot_trends(
     png: str | Path,
     xlabel: str,
     title: str | None = None,
+    log_panels: Iterable[str] = (),
 ) -> Path:
     """Several quantities against one variable, one panel each, ours and the paper's on each panel.
 
@@ -311,6 +312,7 @@ def plot_trends(
             whose label starts with "paper" are drawn as reference markers, the others as lines.
         png: output path.
         xlabel: label of the x axis.
+        log_panels: panel labels drawn with a logarithmic y axis (values spanning decades).
     """
     plt = _pyplot()
     fig, axes = plt.subplots(1, len(quantities), figsize=(4.2 * len(quantities), 3.8), squeeze=False,
@@ -330,7 +332,15 @@ def plot_trends(
         ax.set_xlabel(xlabel)
         ax.set_ylabel(label)
         ax.set_xticks(xs)
-        ax.set_ylim(bottom=0)
+        if label in log_panels:
+            from matplotlib import ticker
+
+            ax.set_yscale("log")
+            ax.yaxis.set_major_locator(ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+            ax.yaxis.set_major_formatter(ticker.FormatStrFormatter("%g"))
+            ax.yaxis.set_minor_formatter(ticker.NullFormatter())
+        else:
+            ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     if title:

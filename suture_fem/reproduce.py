@@ -549,10 +549,11 @@ def figures(solved: dict[str, Any], out: Path) -> list[Path]:
             out_[LABELS[q] + (" in the tissue" if q != "usum_mm" else "")] = series
         return out_
 
+    log_seqv = [LABELS["seqv_pa"] + " in the tissue"]  # the rim peak and the rest differ by up to 10 times
     written.append(plots.plot_trends(CONES, panels(CONES, [1.0]), out / "trends_vs_cones.png", "number of cones",
-                                     title="At 1 N, against the number of cones"))
+                                     title="At 1 N, against the number of cones", log_panels=log_seqv))
     written.append(plots.plot_trends(FORCES_N, panels([4], FORCES_N), out / "trends_vs_force.png", "force (N)",
-                                     title="4 cones, against the pulling force"))
+                                     title="4 cones, against the pulling force", log_panels=log_seqv))
     return written
 
 

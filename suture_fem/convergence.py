@@ -31,7 +31,8 @@ refinement coarser gives Q_h - Q_2h, and with an assumed order p the estimate is
 conservative whenever the true order is 1 or more (the ledger shows the observed orders).
 
 Outputs in DIR: ``ledger.json``, ``ledger.md`` (tables), ``ledger.png`` (relative error against
-wall time, log-log, one curve per quantity and degree) and ``rungs/<name>/`` (each rung's
+wall time, log-log, one curve per quantity and degree; ``ledger-cpu.png`` the same against CPU time,
+which a busy machine does not inflate) and ``rungs/<name>/`` (each rung's
 results.json, run.log and rung.json). Rungs whose folder already holds a converged result of the
 same resolved scene are reused (``--redo`` solves them again).
 """
@@ -64,6 +65,11 @@ REFINEMENT_RATIO = 2.0
 #: Relative change per refinement below which a ladder is called settled instead of extrapolated:
 #: every rung is a new unstructured gmsh mesh, which moves global quantities by about this much.
 SETTLED_REL = 1e-3
+#: Smallest observed order the ladder extrapolates with. Below it the changes shrink by less than a
+#: factor 2^0.5 = 1.4 per refinement and the Richardson correction, d / (2^p - 1), would exceed 2.4
+#: times the last change: an extrapolation far beyond the data, which is what a maximum drifting
+#: into a singular corner looks like. Such a ladder is reported as having no limit in sight.
+MIN_ORDER = 0.5
 #: Scene key of the incompressibility formulation, where the scene has one.
 FORMULATION_KEY = "effects.incompressibility"
 
@@ -121,11 +127,13 @@ class Estimate:
         return self.verdict in ("converging", "settled")
 
 
-def richardson(values: Sequence[float], ratio: float = REFINEMENT_RATIO, settled_rel: float = 0.0) -> Estimate:
+def richardson(values: Sequence[float], ratio: float = REFINEMENT_RATIO, settled_rel: float = 0.0,
+               min_order: float = 0.0) -> Estimate:
     """Observed order and extrapolated limit from the last three of ``values`` (coarse to fine).
 
     When both changes are within ``settled_rel`` of the finest value, the ladder is "settled": the
-    finest value is the estimate and the last change its uncertainty (no order is measurable).
+    finest value is the estimate and the last change its uncertainty (no order is measurable). An
+    observed order at or below ``min_order`` is "diverging": no extrapolation is made.
     """
     if len(values) < 3:
         return Estimate(None, None, "too few rungs")
@@ -136,7 +144,7 @@ def richardson(values: Sequence[float], ratio: float = REFINEMENT_RATIO, settled
     if d1 * d2 <= 0.0:
         return Estimate(None, None, "oscillating")
     order = math.log(d1 / d2) / math.log(ratio)
-    if order <= 0.0:
+    if order <= max(min_order, 0.0):
         return Estimate(order, None, "diverging")
     correction = d2 / (ratio**order - 1.0)
     return Estimate(order, q2 + correction, "converging", correction)
@@ -361,7 +369,7 @@ def analyse(rungs: list[Rung], forces: Sequence[float]) -> dict[str, Any]:
                 # the consecutive run of refinements with a value, up to the finest
                 pairs = [(r.refinement, v) for r, v in zip(seq, values) if v is not None]
                 contiguous = _contiguous_tail(pairs)
-                est = richardson([v for _, v in contiguous], settled_rel=SETTLED_REL)
+                est = richardson([v for _, v in contiguous], settled_rel=SETTLED_REL, min_order=MIN_ORDER)
                 estimates[key] = {
                     "refinements": [k for k, _ in contiguous],
                     "values": [v for _, v in contiguous],
@@ -386,7 +394,7 @@ def analyse(rungs: list[Rung], forces: Sequence[float]) -> dict[str, Any]:
                         entry["two_rung_estimate_rel"] = two_rung_error(v, prev[1]) / abs(v) if v else None
                     errors[r.name] = entry
                     prev = (r.refinement, v) if v is not None else None
-            verdict = _verdict(estimates)
+            verdict = _verdict(estimates, reference, q.unit)
             per_q[q.path] = {"label": q.label, "unit": q.unit, "estimates": estimates, "reference": reference,
                              "rungs": errors, "verdict": verdict}
         analysis[fk] = per_q
@@ -402,18 +410,34 @@ def _contiguous_tail(pairs: list[tuple[int, float]]) -> list[tuple[int, float]]:
     return tail
 
 
-def _verdict(estimates: dict[str, Any]) -> str:
+def _verdict(estimates: dict[str, Any], reference: dict[str, Any] | None, unit: str) -> str:
+    """One sentence: does the quantity converge, and do the other ladders agree with the reference?"""
     kinds = {e["verdict"] for e in estimates.values()}
+    finest = "; finest values " + ", ".join(f"{k}: {_fmt(e['values'][-1], unit)}" for k, e in estimates.items()
+                                             if e["values"]) if len(estimates) > 1 else ""
+    agreement = ""
+    if reference is not None:
+        notes = []
+        for key, e in estimates.items():
+            if key == reference["from"] or not e["values"]:
+                continue
+            off = abs(e["values"][-1] - reference["value"]) / abs(reference["value"])
+            last = e["changes_rel"][-1] if e["changes_rel"] else None
+            # the other ladder agrees when its finest value is within twice the larger of its own last
+            # change and the reference's correction
+            scale = max(last or 0.0, abs(reference["correction"] / reference["value"]))
+            notes.append(f"{key} finest {'within' if off <= 2 * scale else 'OFF by'} {100 * off:.2g} %")
+        agreement = ("; " + ", ".join(notes)) if notes else ""
     if "converging" in kinds:
         orders = ", ".join(f"{k}: {e['order']:.2f}" for k, e in estimates.items() if e["verdict"] == "converging")
-        return f"converges (observed order {orders})"
+        return f"converges (observed order {orders}){agreement}"
     if "settled" in kinds:
-        return f"settled: changes below {100 * SETTLED_REL:g} % per refinement (no order measurable)"
+        return f"settled: changes below {100 * SETTLED_REL:g} % per refinement (no order measurable){agreement}"
     if "diverging" in kinds:
-        return "no limit in sight: the change per refinement does not shrink"
+        return f"no limit in sight: the change per refinement does not shrink (observed order <= {MIN_ORDER:g}){finest}"
     if "oscillating" in kinds:
-        return "not monotone under refinement: no Richardson estimate"
-    return "too few rungs to tell"
+        return f"not monotone under refinement: no Richardson estimate{finest}"
+    return f"too few rungs to tell{finest}"
 
 
 def within(analysis: dict[str, Any], rungs: list[Rung], force: float, path: str, tol: float) -> dict[str, Any]:
@@ -502,6 +526,15 @@ def markdown(title: str, ladder: Ladder, rungs: list[Rung], analysis: dict[str, 
                 f"{v['dofs']} dofs, "
                 f"error {_pct(v['error_rel'])})" for k, v in usum.items()) + ".")
             lines.append("")
+        checks = [(r, per_q["usum_mm"]["rungs"].get(r.name, {})) for r in rungs]
+        checks = [(r, e) for r, e in checks if e.get("two_rung_estimate_rel") is not None and "error_rel" in e]
+        if checks:
+            lines += ["`run --error-estimate` (order 1 assumed: +- |USUM_h - USUM_2h|) against the error measured "
+                      "here:", "", "| rung | +- (two rungs) | error against the reference | covered |",
+                      "| --- | ---: | ---: | --- |"]
+            lines += [f"| {r.label} | {_pct(e['two_rung_estimate_rel'])} | {_pct(e['error_rel'])} | "
+                      f"{'yes' if e['two_rung_estimate_rel'] >= e['error_rel'] else 'no'} |" for r, e in checks]
+            lines.append("")
     return "\n".join(lines)
 
 
@@ -559,7 +592,7 @@ def plot(path: Path, title: str, rungs: list[Rung], analysis: dict[str, Any], ti
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(xlabel)
-        ax.set_ylabel("relative error against the extrapolated value")
+        ax.set_ylabel("relative error against the reference (solid); change per refinement (dashed)")
         ax.set_title(f"{title}: {fk} N")
         ax.grid(True, which="both", alpha=0.3)
     handles, labels = axes[0][0].get_legend_handles_labels()
@@ -571,8 +604,7 @@ def plot(path: Path, title: str, rungs: list[Rung], analysis: dict[str, Any], ti
     os.replace(tmp, path)
 
 
-def write_ledger(out: Path, title: str, ladder: Ladder, rungs: list[Rung], analysis: dict[str, Any],
-                 time_axis: str = "wall") -> dict[str, Any]:
+def write_ledger(out: Path, title: str, ladder: Ladder, rungs: list[Rung], analysis: dict[str, Any]) -> dict[str, Any]:
     """Write ledger.json, ledger.md and ledger.png into ``out`` (call on one rank)."""
     from suture_fem import __version__, compat
 
@@ -588,7 +620,9 @@ def write_ledger(out: Path, title: str, ladder: Ladder, rungs: list[Rung], analy
     }
     write_json(out / "ledger.json", record)
     write_text(out / "ledger.md", markdown(title, ladder, rungs, analysis))
-    plot(out / "ledger.png", title, rungs, analysis, time_axis)
+    plot(out / "ledger.png", title, rungs, analysis, "wall")
+    if all(r.cpu_time_s for r in rungs if r.status == "converged"):
+        plot(out / "ledger-cpu.png", title, rungs, analysis, "cpu")
     return record
 
 
@@ -703,8 +737,6 @@ def register(subparsers: Any, scene_args: Any) -> None:
                    help=f"values of {FORMULATION_KEY} to compare, e.g. displacement,mixed (default: the scene's)")
     p.add_argument("--forces", default=None, help="forces (N) to tabulate (default: every reported force and the peak)")
     p.add_argument("--title", default=None, help="title of the ledger (default: the scene name)")
-    p.add_argument("--time", choices=tuple(TIME_AXES), default="wall",
-                   help="time axis of the plot: wall (default) or cpu (robust on a shared machine)")
     p.add_argument("--inprocess", action="store_true", help="solve the rungs in this process (automatic under mpirun)")
     p.add_argument("--redo", action="store_true", help="solve every rung again even if its folder holds a result")
     p.add_argument("--report-only", action="store_true",
@@ -745,7 +777,7 @@ def main(args: argparse.Namespace, comm: Any) -> int:
     analysis = analyse(rungs, forces)
     title = args.title or name
     if comm.rank == 0:
-        write_ledger(out, title, ladder, rungs, analysis, args.time)
+        write_ledger(out, title, ladder, rungs, analysis)
         print(f"suture-fem: ledger in {out / 'ledger.md'} ({out / 'ledger.json'}, {out / 'ledger.png'})")
         for fk, per_q in analysis.items():
             for p in per_q.values():

@@ -127,6 +127,7 @@ def main() -> None:
     args = ap.parse_args()
     sweep_set = args.sweep_set or ["mesh.degree=1"]
     record: dict = {"cpus": os.cpu_count(), "scene": args.scene, "overrides": args.overrides,
+                    "open_mpi_settings": {k: v for k, v in os.environ.items() if k.startswith("OMPI_MCA_mpi_")},
                     "sweep": {"cones": args.sweep_cones, "forces_n": args.sweep_forces, "set": sweep_set}}
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)

@@ -30,13 +30,14 @@ LADDERS = {
                      ["--set", "geometry.cone_fillet_mm=0.05"]),
 }
 COMMON = ["--degrees", "1,2", "--refinements", "0,1,2", "--cap", "2=1", "--forces", "1,4"]
-SUMMARY = ("usum_mm", "regions.tissue.seqv_pa", "regions.tissue.seqv_outside_rim_pa", "eptoeqv")
+SUMMARY = ("usum_mm", "regions.tissue.seqv_pa", "regions.tissue.seqv_outside_rim_pa",
+           "ledger.tissue_seqv_pa_beyond_0p25mm", "ledger.tissue_seqv_pa_beyond_0p5mm", "eptoeqv")
 
 
-def run_ladder(name: str, out: Path) -> dict:
+def run_ladder(name: str, out: Path, redo: bool = False) -> dict:
     title, extra = LADDERS[name]
     cmd = [sys.executable, "-m", "suture_fem.cli", "convergence", "paper", *extra, *COMMON,
-           "--title", title, "--out", str(out / name)]
+           "--title", title, "--out", str(out / name), *(["--redo"] if redo else [])]
     print(f"$ {' '.join(cmd[1:])}", flush=True)
     proc = subprocess.run(cmd, cwd=ROOT)
     if proc.returncode not in (0, 3):
@@ -71,6 +72,7 @@ def main() -> None:
     ap.add_argument("--out", default=str(ROOT / "benchmarks/out/ledger"))
     ap.add_argument("--only", choices=list(LADDERS), action="append", help="run only these ladders")
     ap.add_argument("--summary-only", action="store_true", help="solve nothing: summarise the ledgers in OUT")
+    ap.add_argument("--redo", action="store_true", help="solve every rung again")
     args = ap.parse_args()
     out = Path(args.out)
     names = args.only or list(LADDERS)
@@ -78,10 +80,10 @@ def main() -> None:
         ledgers = {name: json.loads((out / name / "ledger.json").read_text()) for name in names
                    if (out / name / "ledger.json").exists()}
     else:
-        ledgers = {name: run_ladder(name, out) for name in names}
+        ledgers = {name: run_ladder(name, out, args.redo) for name in names}
     rows = [r for name, ledger in ledgers.items() for r in summary_rows(name, ledger)]
     header = ["ledger", "F (N)", "rung", "dofs", "wall (s)", "peak MB", "USUM mm", "SEQV tissue", "SEQV out-rim",
-              "EPTOEQV"]
+              "SEQV >0.25mm", "SEQV >0.5mm", "EPTOEQV"]
     print("\n" + " | ".join(header))
     for r in rows:
         print(" | ".join([r["ledger"], f"{r['force_n']:g}", r["rung"], str(r["dofs"]), f"{r['wall_time_s']:.1f}",

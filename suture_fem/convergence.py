@@ -70,6 +70,8 @@ SETTLED_REL = 1e-3
 #: times the last change: an extrapolation far beyond the data, which is what a maximum drifting
 #: into a singular corner looks like. Such a ladder is reported as having no limit in sight.
 MIN_ORDER = 0.5
+#: Version of what a rung records; a rung folder written by another version is solved again.
+RUNG_VERSION = 2
 #: Scene key of the incompressibility formulation, where the scene has one.
 FORMULATION_KEY = "effects.incompressibility"
 
@@ -100,6 +102,14 @@ def _lookup(record: dict[str, Any], dotted: str) -> Any:
         return None
 
 
+#: Distances (mm) from every singular point beyond which a ledger rung also takes the tissue's maxima.
+SINGULAR_FREE_MM = (0.25, 0.5)
+
+
+def _beyond(mm: float) -> str:
+    return f"{mm:g}".replace(".", "p") + "mm"
+
+
 QUANTITIES = (
     Quantity("usum_mm", "USUM", "mm"),
     Quantity("seqv_pa", "SEQV (overall max, in the suture)", "Pa"),
@@ -107,6 +117,10 @@ QUANTITIES = (
     Quantity("regions.tissue.seqv_pa", "SEQV tissue (raw max)", "Pa"),
     Quantity("regions.tissue.seqv_outside_rim_pa", "SEQV tissue outside rims", "Pa"),
     Quantity("regions.tissue.eptoeqv_outside_rim", "EPTOEQV tissue outside rims", "-"),
+    *(Quantity(f"ledger.tissue_seqv_pa_beyond_{_beyond(d)}", f"SEQV tissue > {d:g} mm from singular points", "Pa")
+      for d in SINGULAR_FREE_MM),
+    *(Quantity(f"ledger.tissue_eptoeqv_beyond_{_beyond(d)}", f"EPTOEQV tissue > {d:g} mm from singular points", "-")
+      for d in SINGULAR_FREE_MM),
 )
 
 
@@ -177,6 +191,7 @@ class Rung:
     peak_memory_mb: float | None = None
     memory_note: str = ""
     load_average: list[float] | None = None  # 1-minute load average before and after (a shared machine slows wall time)
+    version: int = RUNG_VERSION
     dofs: int | None = None
     cells: int | None = None
     newton_iterations: int | None = None
@@ -212,7 +227,7 @@ def _sets(overrides: Sequence[str]) -> list[str]:
 
 def _run_subprocess(source: str, rung: Rung, folder: Path) -> dict[str, Any] | None:
     """`suture-fem run` in a child process; its own peak memory from os.wait4."""
-    cmd = [sys.executable, "-m", "suture_fem.cli", "run", source, *_sets(rung.overrides), "--out", str(folder)]
+    cmd = [sys.executable, "-m", "suture_fem.cli", "ledger-rung", source, *_sets(rung.overrides), "--out", str(folder)]
     t0 = time.perf_counter()
     with open(folder / "run.log", "w") as logfile:
         proc = subprocess.Popen(cmd, stdout=logfile, stderr=subprocess.STDOUT)
@@ -231,12 +246,11 @@ def _run_inprocess(scene: dict[str, Any], rung: Rung, folder: Path, comm: Any) -
     from mpi4py import MPI
 
     from suture_fem.errors import SutureFemError
-    from suture_fem.run import run_scene
 
     t0 = time.perf_counter()
     cpu0 = resource.getrusage(resource.RUSAGE_SELF)
     try:
-        results = run_scene(scene, folder, comm)
+        results = solve_rung(scene, folder, comm)
         rung.exit_code = 0
     except SutureFemError as exc:
         rung.exit_code = exc.exit_code
@@ -250,6 +264,76 @@ def _run_inprocess(scene: dict[str, Any], rung: Rung, folder: Path, comm: Any) -
     if results is None:
         path = folder / "results.json"
         results = comm.bcast(read_json(path) if comm.rank == 0 and path.exists() else None, root=0)
+    return results
+
+
+def singular_points(geometry: Any, fillet_mm: float) -> list[tuple[float, float]]:
+    """Every point (mm) where the elastic field of a sharp geometry is singular.
+
+    The sharp cone corners (the base rim corners are not, when ``geometry.cone_fillet_mm`` > 0 rounds
+    them), every point where a cone's outline meets the thread surface, and the two points where the
+    bonded thread surface meets a free end face of the tissue (z = 0 and z = L): at each, a bonded
+    interface or a re-entrant corner meets a free or stiff boundary.
+    """
+    r_t = geometry.r_thread
+    points = list(geometry.corners)
+    if fillet_mm > 0:
+        points = [p for p in points if not any(abs(p[1] - c.base_z) < 1e-9 for c in geometry.cones)]
+    for cone in geometry.cones:
+        for _, segment in cone.outline:
+            points += [tuple(q) for q in segment if abs(q[0] - r_t) < 1e-9 and tuple(q) not in points]
+    return points + [(r_t, 0.0), (r_t, geometry.length)]
+
+
+def singular_free_maxima(outputs: Any, fillet_mm: float) -> dict[str, Any]:
+    """The tissue's maximum von Mises stress and equivalent strain (cell maxima over quadrature points)
+    over the cells whose midpoint is farther than each of :data:`SINGULAR_FREE_MM` from every
+    singular point (collective). A maximum taken away from every singularity has a limit."""
+    import dolfinx.mesh
+    import numpy as np
+    from mpi4py import MPI
+
+    from suture_fem import mesh as meshmod
+
+    physics = outputs.physics
+    mesh, comm = physics.mesh, physics.comm
+    points = np.array(singular_points(physics.tagged.geometry, fillet_mm), dtype=float).reshape(-1, 2)
+    cells = meshmod.region_cells(physics.tagged, meshmod.TISSUE)
+    cells = cells[cells < mesh.topology.index_map(mesh.topology.dim).size_local]
+    mid = dolfinx.mesh.compute_midpoints(mesh, mesh.topology.dim, cells)[:, :2] / meshmod.MM
+    dist = np.min(np.linalg.norm(mid[:, None, :] - points[None, :, :], axis=2), axis=1) if len(cells) else mid[:, 0]
+    fields = outputs.cell_maxima()
+    out: dict[str, Any] = {"singular_points_mm": points.tolist()}
+    for d in SINGULAR_FREE_MM:
+        far = dist > d
+        for name, key in (("seqv_pa", "von_mises_pa"), ("eptoeqv", "eptoeqv")):
+            vals = fields[key][cells[far]]
+            k = int(np.argmax(vals)) if len(vals) else -1
+            local = (float(vals[k]), mid[far][k].tolist()) if k >= 0 else (-np.inf, None)
+            value, at = max(comm.allgather(local), key=lambda t: t[0])
+            out[f"tissue_{name}_beyond_{_beyond(d)}"] = value if at is not None else None
+            out[f"tissue_{name}_beyond_{_beyond(d)}_at_mm"] = at
+    return out
+
+
+def solve_rung(scene: dict[str, Any], folder: Path | None, comm: Any) -> dict[str, Any]:
+    """``run_scene`` plus, at every reported force, the singularity-free maxima under ``ledger``;
+    results.json is rewritten with them (rank 0)."""
+    from suture_fem.run import run_scene
+
+    extra: dict[float, dict[str, Any]] = {}
+    fillet = scene["geometry"]["cone_fillet_mm"]
+
+    def on_report(force_n: float, outputs: Any) -> None:
+        if {"seqv", "eptoeqv"} <= set(getattr(outputs, "quantities", ("seqv", "eptoeqv"))):
+            extra[force_n] = singular_free_maxima(outputs, fillet)
+
+    results = run_scene(scene, folder, comm, on_report=on_report)
+    for rec in results.get("at_forces", []):
+        if rec["force_n"] in extra:
+            rec["ledger"] = extra[rec["force_n"]]
+    if folder is not None:
+        on_root(comm, "writing results.json", write_json, Path(folder) / "results.json", results)
     return results
 
 
@@ -310,7 +394,7 @@ def solve_ladder(ladder: Ladder, out: Path, comm: Any, inprocess: bool, redo: bo
         if (report_only or not redo) and record.exists():
             old = read_json(record)
             same = old.get("scene") == json.loads(json.dumps(scene))
-            if report_only or (old.get("status") == "converged" and same):
+            if report_only or (old.get("status") == "converged" and same and old.get("version") == RUNG_VERSION):
                 kept = Rung(**{k: v for k, v in old.items() if k in Rung.__dataclass_fields__})
                 if (folder / "results.json").exists():
                     _collect(kept, read_json(folder / "results.json"))
@@ -722,6 +806,11 @@ def _float_list(text: str) -> list[float]:
 
 
 def register(subparsers: Any, scene_args: Any) -> None:
+    p = subparsers.add_parser("ledger-rung", help="one rung of `convergence`: `run` plus the tissue's maxima away "
+                              "from every singular point (results.json, at_forces[].ledger)")
+    scene_args(p)
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(handler=_rung_main)
     p = subparsers.add_parser("convergence", help="the accuracy-cost ledger: a ladder of refinements and degrees, "
                               "Richardson error estimates, wall time and memory per rung")
     scene_args(p)
@@ -742,6 +831,11 @@ def register(subparsers: Any, scene_args: Any) -> None:
     p.add_argument("--report-only", action="store_true",
                    help="solve nothing: rebuild the ledger from the rungs already in the output folder")
     p.set_defaults(handler=main)
+
+
+def _rung_main(args: argparse.Namespace, comm: Any) -> int:
+    solve_rung(scenes.load_scene(args.scene, args.overrides), Path(args.out), comm)
+    return 0
 
 
 def main(args: argparse.Namespace, comm: Any) -> int:

@@ -90,3 +90,20 @@ def test_convergence_rejects_a_bad_ladder_before_solving(tmp_path):
     assert main(["convergence", "paper", "--degrees", "3", "--out", str(tmp_path)]) == 2
     assert main(["convergence", "paper", "--forces", "7", "--out", str(tmp_path)]) == 2
     assert not (tmp_path / "rungs").exists()
+
+
+def test_singular_points_are_the_sharp_corners_the_thread_junctions_and_the_thread_exits():
+    from suture_fem.convergence import singular_points
+    from suture_fem.geometry import Geometry
+    from suture_fem.scene import load_scene
+
+    sharp = Geometry.from_scene(load_scene("paper", ["geometry.cones=1"]))
+    points = singular_points(sharp, 0.0)
+    r_t, cone = sharp.r_thread, sharp.cones[0]
+    assert set(map(tuple, sharp.corners)) <= set(points)
+    assert (r_t, 0.0) in points and (r_t, sharp.length) in points  # the thread leaves the tissue's end faces
+    assert (r_t, cone.apex_z) in points  # the apex cap meets the thread
+    rounded = Geometry.from_scene(load_scene("paper", ["geometry.cones=1", "geometry.cone_fillet_mm=0.05"]))
+    kept = singular_points(rounded, 0.05)
+    assert not any(abs(p[1] - cone.base_z) < 1e-9 for p in kept)  # the rounded base rim is not singular
+    assert len(kept) == len(points) - 2

@@ -23,7 +23,8 @@ from suture_fem.errors import SutureFemError
 
 #: Modules that add a subcommand: each has ``register(subparsers, scene_args)``, which adds its
 #: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
-COMMAND_MODULES: tuple[str, ...] = ("suture_fem.sweep", "suture_fem.convergence", "suture_fem.reproduce")
+COMMAND_MODULES: tuple[str, ...] = ("suture_fem.sweep", "suture_fem.convergence", "suture_fem.reproduce",
+                                     "suture_fem.maxload")
 
 
 class _RankFilter(logging.Filter):
@@ -162,9 +163,10 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
 def _summary(results: dict[str, Any], out: Path) -> str:
     lines = [f"suture-fem: results in {out / 'results.json'}"]
     for rec in results["at_forces"]:
-        lines.append(
-            f"  F = {rec['force_n']:.3g} N: USUM = {rec['usum_mm']:.4g} mm, SEQV = {rec['seqv_pa']:.4g} Pa, "
-            f"EPTOEQV = {rec['eptoeqv']:.4g}, thread end {rec['thread_end_displacement_mm']:.4g} mm, "
+        asked = [f"{name} = {rec[key]:.4g}{unit}" for name, key, unit in
+                 (("USUM", "usum_mm", " mm"), ("SEQV", "seqv_pa", " Pa"), ("EPTOEQV", "eptoeqv", "")) if key in rec]
+        lines.append(  # only the quantities the scene asked for (output.quantities)
+            f"  F = {rec['force_n']:.3g} N: {', '.join(asked)}, thread end {rec['thread_end_displacement_mm']:.4g} mm, "
             f"reaction {rec['reaction_force_n']:.6g} N"
         )
     if "error_estimate" in results:

@@ -42,14 +42,18 @@ def _pyvista() -> Any:
     return pyvista
 
 
-def _pyplot() -> Any:
+def _figure(**kwargs: Any) -> Any:
+    """A matplotlib Figure drawn for a file only, without pyplot: the process's backend (a notebook's
+    inline backend, an interactive window) is left alone, and the figure is never shown or kept open."""
+    from matplotlib.figure import Figure
+
+    return Figure(**kwargs)
+
+
+def _cmap(name: str) -> Any:
     import matplotlib
 
-    if matplotlib.get_backend().lower() not in ("agg", "pdf", "svg", "ps"):
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return matplotlib.colormaps[name]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -208,8 +212,7 @@ def render_usum(
     Each half-section is mirrored (r -> -r) into the full longitudinal section; the suture (thread
     and cones) and the tissue layer interfaces are outlined in black; the colour bar is in mm.
     """
-    plt = _pyplot()
-    from matplotlib import colors
+    from matplotlib import cm, colors
 
     grids = [_as_grid(p) for p in panels]
     titles = list(titles) if titles is not None else [""] * len(grids)
@@ -226,7 +229,7 @@ def render_usum(
 
     aspect = (bounds[3] - bounds[2]) / (bounds[1] - bounds[0])
     fig_w = 9.0
-    fig = plt.figure(figsize=(fig_w, len(images) * (0.8 * fig_w * aspect + 0.45) + 0.6), layout="constrained")
+    fig = _figure(figsize=(fig_w, len(images) * (0.8 * fig_w * aspect + 0.45) + 0.6), layout="constrained")
     axes = fig.subplots(len(images), 1, squeeze=False)[:, 0]
     for ax, img, title in zip(axes, images, titles):
         ax.imshow(img, extent=bounds, origin="upper", interpolation="antialiased")
@@ -235,8 +238,8 @@ def render_usum(
         ax.set_xlim(bounds[0], bounds[1])
         ax.set_ylim(bounds[2], bounds[3])
     axes[-1].set_xlabel("z (mm) along the thread; the pulled end is on the right")
-    norm = colors.BoundaryNorm(boundaries, plt.get_cmap(CMAP).N)
-    bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=CMAP), ax=list(axes), ticks=boundaries,
+    norm = colors.BoundaryNorm(boundaries, _cmap(CMAP).N)
+    bar = fig.colorbar(cm.ScalarMappable(norm=norm, cmap=CMAP), ax=list(axes), ticks=boundaries,
                        format="%g", shrink=0.9, aspect=30)
     bar.set_label("USUM, displacement magnitude (mm)")
     if suptitle:
@@ -245,12 +248,10 @@ def render_usum(
 
 
 def _save(fig: Any, png: str | Path) -> Path:
-    plt = _pyplot()
     png = Path(png)
     png.parent.mkdir(parents=True, exist_ok=True)
     tmp = png.with_name(f".{png.stem}.{os.getpid()}.tmp.png")
     fig.savefig(tmp, dpi=130, bbox_inches="tight")
-    plt.close(fig)
     os.replace(tmp, png)
     return png
 
@@ -275,9 +276,9 @@ def plot_force_displacement(
             the curve with the same label (black when there is none), e.g. the paper's values.
         reference_name: what the reference is, for the legend.
     """
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(8.2, 4.8), layout="constrained")
-    cmap = plt.get_cmap("viridis")
+    fig = _figure(figsize=(8.2, 4.8), layout="constrained")
+    ax = fig.subplots()
+    cmap = _cmap("viridis")
     colour = {label: cmap(0.85 * i / max(len(curves) - 1, 1)) for i, label in enumerate(curves)}
     for label, pts in curves.items():
         a = np.asarray(pts, dtype=float).reshape(-1, 2)
@@ -314,9 +315,8 @@ def plot_trends(
         xlabel: label of the x axis.
         log_panels: panel labels drawn with a logarithmic y axis (values spanning decades).
     """
-    plt = _pyplot()
-    fig, axes = plt.subplots(1, len(quantities), figsize=(4.2 * len(quantities), 3.8), squeeze=False,
-                             layout="constrained")
+    fig = _figure(figsize=(4.2 * len(quantities), 3.8), layout="constrained")
+    axes = fig.subplots(1, len(quantities), squeeze=False)
     ours_styles = [dict(marker="o", ls="-", color="tab:blue"), dict(marker="o", ls="--", mfc="none", color="tab:blue"),
                    dict(marker="^", ls=":", color="tab:orange"), dict(marker="v", ls="-.", color="tab:green")]
     reference_style = dict(marker="s", ls="none", ms=7, mfc="none", mew=1.5, color="black")

@@ -241,8 +241,9 @@ def calibrate(
 # Solving
 
 
-def solve_cone_counts(scene: dict[str, Any], out: Path, comm: Any, fields: bool = True) -> dict[str, Any]:
-    """One load ramp per cone count; returns {"results": {n: results}, "grids": {(n, F): grid}, ...}.
+def solve_cone_counts(scene: dict[str, Any], out: Path, comm: Any, fields: bool = True,
+                      cones: tuple[int, ...] = CONES) -> dict[str, Any]:
+    """One load ramp per cone count of ``cones``; returns {"results": {n: results}, "grids": {(n, F): grid}, ...}.
 
     Grids (rank 0 only) are the solved states at every reported force, also written to
     ``out/fields/conesN_FN.vtu``. A ramp that stops keeps its converged part.
@@ -253,7 +254,7 @@ def solve_cone_counts(scene: dict[str, Any], out: Path, comm: Any, fields: bool 
     results: dict[int, dict[str, Any]] = {}
     grids: dict[tuple[int, float], Any] = {}
     stopped: dict[int, str] = {}
-    for n in CONES:
+    for n in cones:
         case = with_values(scene, {"geometry.cones": n, "output.fields": False})
         folder = out / f"cones_{n}"
 
@@ -562,8 +563,9 @@ def figures(solved: dict[str, Any], out: Path) -> list[Path]:
 
 
 def reproduce(scene: dict[str, Any], out: Path, comm: Any, calibrate_again: bool = False,
-              pictures: bool = True, scene_name: str = SCENE) -> dict[str, Any]:
-    """Calibrate (only if asked), solve every cone count, compare, draw; returns comparison.json's content."""
+              pictures: bool = True, scene_name: str = SCENE, cones: tuple[int, ...] = CONES) -> dict[str, Any]:
+    """Calibrate (only if asked), solve every cone count (a subset with ``cones``: the values of the
+    others are then missing from the comparison), compare, draw; returns comparison.json's content."""
     t_start = time.perf_counter()
     value = scenes.get(scene, CALIBRATED.keys[0])
     if calibrate_again:
@@ -577,7 +579,7 @@ def reproduce(scene: dict[str, Any], out: Path, comm: Any, calibrate_again: bool
         else:
             log.warning("calibration %s: closest USUM %.4f mm at %.4g mm; the scene's %g mm is kept",
                         cal["status"], cal["usum_mm"], cal["value_mm"], value)
-    solved = solve_cone_counts(scene, out, comm, fields=pictures)
+    solved = solve_cone_counts(scene, out, comm, fields=pictures, cones=cones)
     results = solved["results"]
     usum_target = ours(results, TARGET.cones, TARGET.force_n, "usum_mm")[0]
     if not calibrate_again:

@@ -637,18 +637,18 @@ def plot(path: Path, title: str, rungs: list[Rung], analysis: dict[str, Any], ti
     Quantities without a limit are drawn dashed as their relative change per refinement.
     """
     time_key, xlabel = TIME_AXES[time_axis]
-    import matplotlib
+    from matplotlib import rcParams
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from suture_fem.plots import file_figure  # no pyplot: a notebook's backend is left alone
 
     forces = list(analysis)
     n_curves = sum(len(p["estimates"]) for p in next(iter(analysis.values()), {}).values())
     legend_rows = math.ceil(n_curves / 2)
     height = 5.0 + 0.2 * legend_rows
-    fig, axes = plt.subplots(1, len(forces), figsize=(max(12.0, 6.5 * len(forces)), height), squeeze=False)
+    fig = file_figure(figsize=(max(12.0, 6.5 * len(forces)), height))
+    axes = fig.subplots(1, len(forces), squeeze=False)
     by_name = {r.name: r for r in rungs}
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colors = rcParams["axes.prop_cycle"].by_key()["color"]
     markers = {1: "o", 2: "s"}
     for ax, fk in zip(axes[0], forces):
         for qi, (path_q, p) in enumerate(analysis[fk].items()):
@@ -684,7 +684,6 @@ def plot(path: Path, title: str, rungs: list[Rung], analysis: dict[str, Any], ti
     fig.tight_layout(rect=(0, (0.2 * legend_rows + 0.3) / height, 1, 1))
     tmp = path.with_name(f".{path.name}.{os.getpid()}.png")
     fig.savefig(tmp, dpi=130)
-    plt.close(fig)
     os.replace(tmp, path)
 
 

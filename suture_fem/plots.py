@@ -42,7 +42,7 @@ def _pyvista() -> Any:
     return pyvista
 
 
-def _figure(**kwargs: Any) -> Any:
+def file_figure(**kwargs: Any) -> Any:
     """A matplotlib Figure drawn for a file only, without pyplot: the process's backend (a notebook's
     inline backend, an interactive window) is left alone, and the figure is never shown or kept open."""
     from matplotlib.figure import Figure
@@ -229,7 +229,7 @@ def render_usum(
 
     aspect = (bounds[3] - bounds[2]) / (bounds[1] - bounds[0])
     fig_w = 9.0
-    fig = _figure(figsize=(fig_w, len(images) * (0.8 * fig_w * aspect + 0.45) + 0.6), layout="constrained")
+    fig = file_figure(figsize=(fig_w, len(images) * (0.8 * fig_w * aspect + 0.45) + 0.6), layout="constrained")
     axes = fig.subplots(len(images), 1, squeeze=False)[:, 0]
     for ax, img, title in zip(axes, images, titles):
         ax.imshow(img, extent=bounds, origin="upper", interpolation="antialiased")
@@ -276,7 +276,7 @@ def plot_force_displacement(
             the curve with the same label (black when there is none), e.g. the paper's values.
         reference_name: what the reference is, for the legend.
     """
-    fig = _figure(figsize=(8.2, 4.8), layout="constrained")
+    fig = file_figure(figsize=(8.2, 4.8), layout="constrained")
     ax = fig.subplots()
     cmap = _cmap("viridis")
     colour = {label: cmap(0.85 * i / max(len(curves) - 1, 1)) for i, label in enumerate(curves)}
@@ -315,7 +315,7 @@ def plot_trends(
         xlabel: label of the x axis.
         log_panels: panel labels drawn with a logarithmic y axis (values spanning decades).
     """
-    fig = _figure(figsize=(4.2 * len(quantities), 3.8), layout="constrained")
+    fig = file_figure(figsize=(4.2 * len(quantities), 3.8), layout="constrained")
     axes = fig.subplots(1, len(quantities), squeeze=False)
     ours_styles = [dict(marker="o", ls="-", color="tab:blue"), dict(marker="o", ls="--", mfc="none", color="tab:blue"),
                    dict(marker="^", ls=":", color="tab:orange"), dict(marker="v", ls="-.", color="tab:green")]

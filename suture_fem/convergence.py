@@ -71,7 +71,7 @@ SETTLED_REL = 1e-3
 #: into a singular corner looks like. Such a ladder is reported as having no limit in sight.
 MIN_ORDER = 0.5
 #: Version of what a rung records; a rung folder written by another version is solved again.
-RUNG_VERSION = 2
+RUNG_VERSION = 3
 #: Scene key of the incompressibility formulation, where the scene has one.
 FORMULATION_KEY = "effects.incompressibility"
 
@@ -268,12 +268,14 @@ def _run_inprocess(scene: dict[str, Any], rung: Rung, folder: Path, comm: Any) -
 
 
 def singular_points(geometry: Any, fillet_mm: float) -> list[tuple[float, float]]:
-    """Every point (mm) where the elastic field of a sharp geometry is singular.
+    """Every point (mm) where the elastic field of the model is singular.
 
     The sharp cone corners (the base rim corners are not, when ``geometry.cone_fillet_mm`` > 0 rounds
-    them), every point where a cone's outline meets the thread surface, and the two points where the
-    bonded thread surface meets a free end face of the tissue (z = 0 and z = L): at each, a bonded
-    interface or a re-entrant corner meets a free or stiff boundary.
+    them), every point where a cone's outline meets the thread surface, and every point where an
+    interface or the clamped outer surface meets a free end face of the tissue (z = 0 and z = L): the
+    thread surface, the hypodermis-dermis and dermis-epidermis interfaces and the clamped surface
+    r = r_epidermis. At each, a re-entrant corner, a bonded material interface or a change of
+    boundary condition meets a free boundary.
     """
     r_t = geometry.r_thread
     points = list(geometry.corners)
@@ -282,7 +284,8 @@ def singular_points(geometry: Any, fillet_mm: float) -> list[tuple[float, float]
     for cone in geometry.cones:
         for _, segment in cone.outline:
             points += [tuple(q) for q in segment if abs(q[0] - r_t) < 1e-9 and tuple(q) not in points]
-    return points + [(r_t, 0.0), (r_t, geometry.length)]
+    radii = (r_t, geometry.r_hypodermis, geometry.r_dermis, geometry.r_epidermis)
+    return points + [(r, z) for r in radii for z in (0.0, geometry.length)]
 
 
 def singular_free_maxima(outputs: Any, fillet_mm: float) -> dict[str, Any]:

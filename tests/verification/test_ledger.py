@@ -92,7 +92,7 @@ def test_convergence_rejects_a_bad_ladder_before_solving(tmp_path):
     assert not (tmp_path / "rungs").exists()
 
 
-def test_singular_points_are_the_sharp_corners_the_thread_junctions_and_the_thread_exits():
+def test_singular_points_are_corners_junctions_and_where_interfaces_meet_the_end_faces():
     from suture_fem.convergence import singular_points
     from suture_fem.geometry import Geometry
     from suture_fem.scene import load_scene
@@ -102,6 +102,7 @@ def test_singular_points_are_the_sharp_corners_the_thread_junctions_and_the_thre
     r_t, cone = sharp.r_thread, sharp.cones[0]
     assert set(map(tuple, sharp.corners)) <= set(points)
     assert (r_t, 0.0) in points and (r_t, sharp.length) in points  # the thread leaves the tissue's end faces
+    assert (sharp.r_epidermis, sharp.length) in points  # the clamped outer surface meets a free end face
     assert (r_t, cone.apex_z) in points  # the apex cap meets the thread
     rounded = Geometry.from_scene(load_scene("paper", ["geometry.cones=1", "geometry.cone_fillet_mm=0.05"]))
     kept = singular_points(rounded, 0.05)

@@ -32,9 +32,11 @@ SUTURE_GREY = "#9a9a9a"
 
 
 def section(outputs: Any, deformed: bool = True) -> pv.UnstructuredGrid:
-    """The solved state of ``outputs`` (what run_scene's ``on_report`` hands over) as a full section
-    in mm: point data ``usum_mm``, cell data ``von_mises_kpa``, ``eptoeqv`` and ``region`` (cell tags)."""
-    grid = plots.full_section(plots.field_grid(outputs), deformed)
+    """The solved state of ``outputs`` (what run_scene's ``on_report`` hands over, or its half-section
+    grid from ``plots.field_grid``) as a full section in mm: point data ``usum_mm``, cell data
+    ``von_mises_kpa``, ``eptoeqv`` and ``region`` (cell tags)."""
+    half = outputs if isinstance(outputs, pv.DataSet) else plots.field_grid(outputs)
+    grid = plots.full_section(half, deformed)
     grid.cell_data["von_mises_kpa"] = grid.cell_data["von_mises_pa"] / 1e3
     return grid
 

@@ -17,7 +17,8 @@ The weak forms, with dV = 2 pi r dr dz (:mod:`suture_fem.kinematics`), u the dis
 test function:
 
 * Elasticity, plain displacement: delta Pi[v] with Pi = sum_regions int W(F(u)) dV.
-* Elasticity, mixed: in each tissue region W = W_iso(F) + U(J) is replaced by W_iso(F) + p (J - 1),
+* Elasticity, mixed: in each tissue region the stress U'(J) cof F of the volumetric energy is replaced
+  by p cof F (the residual int W_iso'(F) : dF[v] + p dJ[v] dV, with p held fixed in the variation),
   and the pressure p (continuous P1) solves int (U'(J) - p) / K0 q dV = 0 for every test q, i.e.
   p is the P1 projection of the constitutive pressure U'(J) (K0 = initial bulk modulus; for 1/d = 0
   the equation is int (J - 1) q dV = 0, exact incompressibility). The material law is unchanged;
@@ -151,6 +152,7 @@ class FormContext:
         v, q: the test functions of u and p (q None unless mixed); test: the test function of w.
         x, weight: coordinates and 2 pi r; dx, ds: measures with the cell and facet tags.
         region_tags: region -> cell tags present in the mesh.
+        scale: 1 / (1 - alpha_f): undoes the factor the evaluation state w_{n+1-alpha_f} puts on d/dw.
     """
 
     w: Any
@@ -165,6 +167,14 @@ class FormContext:
     ds: Any
     materials: dict[str, Any]
     region_tags: dict[str, tuple[int, ...]]
+    scale: float = 1.0
+
+    def variation(self, expr: Any) -> Any:
+        """d(expr)[test]: the Gateaux derivative of an expression of the evaluation state."""
+        import ufl
+
+        d = ufl.derivative(expr, self.w, self.test)
+        return d if self.scale == 1.0 else self.scale * d
 
     def F(self, u: Any) -> Any:
         from suture_fem import kinematics
@@ -200,8 +210,11 @@ def elastic_terms(ctx: FormContext, effects: Effects, terms: Terms) -> None:
         mat = ctx.materials[region]
         if effects.mixed:
             J = ufl.det(F)
-            terms.potential[f"elastic:{region}"] = (mat.isochoric(F) + ctx.p * (J - 1)) * ctx.weight * ctx.over(region)
-            terms.residual[f"pressure:{region}"] = _pressure_equation(mat, J, ctx.p) * ctx.q * ctx.weight * ctx.over(region)
+            terms.potential[f"elastic:{region}"] = mat.isochoric(F) * ctx.weight * ctx.over(region)
+            # p dJ[v] only (not a p-variation of p (J - 1), which would add int (J - 1) q to the pressure row)
+            terms.residual[f"pressure:{region}"] = (
+                ctx.p * ctx.variation(J) + _pressure_equation(mat, J, ctx.p) * ctx.q
+            ) * ctx.weight * ctx.over(region)
         else:
             terms.potential[f"elastic:{region}"] = mat.energy(F) * ctx.weight * ctx.over(region)
     if "suture" in ctx.region_tags and not effects.rigid:

@@ -214,6 +214,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
         w=state, u=displacement(w_eval), p=w_eval[2] if effects.mixed else None,
         v=displacement(test), q=test[2] if effects.mixed else None, test=test,
         x=x, weight=weight, dx=dx, ds=ds, materials=materials, region_tags=region_tags,
+        scale=1.0 / (1.0 - dynamics.scheme.alpha_f) if dynamics is not None else 1.0,
     )
     terms = Terms()
     elastic_terms(ctx, effects, terms)
@@ -226,10 +227,8 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
     if dynamics is not None:
         dynamics.terms(ctx, displacement, effects.rigid, terms)
 
-    potential = sum(terms.potential.values())
     # with generalized-alpha the static terms sit at w_{n+1-alpha_f}: d/dw of Pi(w_eval) carries 1 - alpha_f
-    scale = 1.0 / (1.0 - dynamics.scheme.alpha_f) if dynamics is not None else 1.0
-    residual = scale * ufl.derivative(potential, state, test) if scale != 1.0 else ufl.derivative(potential, state, test)
+    residual = ctx.variation(sum(terms.potential.values()))
     for form in terms.residual.values():
         residual = residual + form
     jacobian = ufl.derivative(residual, state, ufl.TrialFunction(W))

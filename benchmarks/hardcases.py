@@ -39,7 +39,7 @@ def main() -> None:
             print(f"[{i + 1}/{len(cases)}] {case.name}: {row['outcome']} {row.get('cause') or ''} "
                   f"{row.get('load_reached_n')} N, {row.get('wall_time_s') or 0:.1f} s", flush=True)
             write_json(out.with_suffix(".json"), {"rows": rows})  # keep what is done if interrupted
-    text = "## Hard-case matrix\n\n" + markdown(rows) + "\n## Case 1: USUM (mm) at 4 N against the bulk modulus\n\n" \
+    text = "## Hard-case matrix\n\n" + markdown(rows) + "\n## Case 1: USUM, EPTOEQV and tissue SEQV at 4 N against the bulk modulus\n\n" \
         + locking_table(rows)
     write_text(out.with_suffix(".md"), text)
     print(text)

@@ -121,8 +121,9 @@ def set_function_domain_error(snes: Any) -> bool:
     """Tell SNES the last function evaluation left the admissible domain, where petsc4py can.
 
     petsc4py 3.18 (Debian bookworm) has no ``SNES.setFunctionDomainError``; there the residual
-    callback marks the state inadmissible by returning an infinite residual norm instead, which the
-    backtracking line search treats as a failed trial and shortens the step (see solver.py).
+    callback marks the state inadmissible by returning a huge finite residual (1e30 in every entry)
+    instead, which the backtracking line search treats as a failed trial and shortens the step, and
+    which makes a full-step Newton diverge at once (DIVERGED_DTOL) so the step is retried (solver.py).
     Returns True when the PETSc call was made.
     """
     fn = getattr(snes, "setFunctionDomainError", None)

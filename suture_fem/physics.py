@@ -263,7 +263,6 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
         }
         left_out["suture pressure"] = "the suture keeps its displacement form; its pressure unknowns off the tissue are pinned to 0"
     outer_z = dolfinx.fem.locate_dofs_topological(W_u.sub(1), fdim, outer)
-    unknowns = _unknowns(W, W_u, bcs, tagged, effects.rigid)
     rigid_displacement = None
     if effects.rigid:
         # The constraint as boundary conditions (u_r = 0, u_z = d on every suture dof), so everything that
@@ -273,6 +272,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
         for comp, value in ((0, PETSc.ScalarType(0.0)), (1, rigid_displacement)):
             dofs = np.flatnonzero(mark_dofs(W, suture_cells, W_u.sub(comp))).astype(np.int32)
             bcs.append(dolfinx.fem.dirichletbc(value, dofs, W_u.sub(comp)))
+    unknowns = _unknowns(W, bcs, rigid_bc=bcs[-1] if effects.rigid else None)
     if effects.rigid:
         owned_kind = unknowns.kind[: unknowns.n_owned]
         notes["suture"] = {
@@ -347,18 +347,17 @@ def weight_n(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> float:
     return mesh.comm.allreduce(total) * e["gravity_m_s2"]
 
 
-def _unknowns(W: Any, W_u: Any, bcs: list[Any], tagged: meshmod.TaggedMesh, rigid: bool) -> Unknowns:
-    """Classify every local dof of W: fixed by a boundary condition, rigid (suture, when rigid) or free."""
+def _unknowns(W: Any, bcs: list[Any], rigid_bc: Any = None) -> Unknowns:
+    """Classify every local dof of W: FIXED by a (zero) boundary condition, RIGID (u_z = d on the rigid
+    suture's ``rigid_bc``) or FREE."""
     im = W.dofmap.index_map
     bs = W.dofmap.index_map_bs
     kind = np.full((im.size_local + im.num_ghosts) * bs, FREE, dtype=np.int8)
     for bc in bcs:
         kind[bc.dof_indices()[0]] = FIXED
-    if rigid:  # the suture's radial dofs are FIXED (0), its axial dofs follow d
-        suture_cells = meshmod.region_cells(tagged, meshmod.SUTURE)
-        kind[mark_dofs(W, suture_cells, W_u.sub(0))] = FIXED
-        kind[mark_dofs(W, suture_cells, W_u.sub(1))] = RIGID
-    return Unknowns(kind=kind, n_owned=im.size_local * bs, rigid=rigid)
+    if rigid_bc is not None:
+        kind[rigid_bc.dof_indices()[0]] = RIGID
+    return Unknowns(kind=kind, n_owned=im.size_local * bs, rigid=rigid_bc is not None)
 
 
 def _present_tags(tagged: meshmod.TaggedMesh) -> set[int]:

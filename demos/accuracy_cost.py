@@ -159,15 +159,19 @@ p_hand = math.log((q1 - q0) / (q2 - q1), 2)
 limit_hand = q2 + (q2 - q1) / (2**p_hand - 1)
 finest = max((r for r in ledger["rungs"] if r["degree"] == 1), key=lambda r: r["refinement"])
 err_finest = usum["rungs"][finest["name"]]
-usum_changes, peak_changes = e1["changes_rel"], peak["estimates"]["P1"]["changes_rel"]
+usum_changes = [c for e in usum["estimates"].values() for c in e["changes_rel"]]  # every ladder
+peak_changes = [c for e in peak["estimates"].values() for c in e["changes_rel"]]
+peak_p1 = peak["estimates"]["P1"]
+peak_beyond = [v for key, e in peak["estimates"].items() if key != "P1" for v in e["values"]]
 print(f"USUM (mm), P1 r0-r2: {q0:.4f}, {q1:.4f}, {q2:.4f}")
 print(f"by hand: order {p_hand:.3f}, limit {limit_hand:.4f} mm; ledger: {e1['verdict']}, order {e1['order']}, "
       f"limit {e1['limit']} mm")
 print(f"finest P1 rung {finest['name']}: error {err_finest['error_rel']:.3%}, two-rung estimate "
       f"{err_finest['two_rung_estimate_rel']:.3%} (assumes order 1), "
       f"covered: {err_finest['two_rung_estimate_rel'] >= err_finest['error_rel']}")
-print("change per refinement, USUM:", ", ".join(f"{c:.2%}" for c in usum_changes),
+print("change per refinement, every ladder, USUM:", ", ".join(f"{c:.2%}" for c in usum_changes),
       "| raw tissue SEQV peak:", ", ".join(f"{c:.1%}" for c in peak_changes))
+print(f"raw peak, P1 ladder: {peak_p1['verdict']}, limit {peak_p1['limit']}; other ladders' values (Pa): {peak_beyond}")
 coarsest = ledger["rungs"][0]
 print(f"coarsest rung {coarsest['name']}: USUM error {usum['rungs'][coarsest['name']]['error_rel']:.2%}")
 print(f"cost of the finest P1 rung / the coarsest: {finest['dofs'] / ledger['rungs'][0]['dofs']:.1f} x the dofs, "
@@ -177,8 +181,9 @@ assert all(r["status"] == "converged" for r in ledger["rungs"])
 assert e1["verdict"] in ("converging", "settled") and usum_changes[-1] < 0.01
 if e1["verdict"] == "converging":
     assert math.isclose(p_hand, e1["order"], rel_tol=1e-9) and math.isclose(limit_hand, e1["limit"], rel_tol=1e-12)
-assert all(c > 0.1 for c in peak_changes)  # the rim peak moves by more than 10 % per refinement
-assert min(peak_changes) > 10 * max(usum_changes)
+assert min(peak_changes) > 5 * max(usum_changes)  # the rim peak moves far more than USUM at every step
+if peak_p1["verdict"] == "converging" and peak_beyond:  # a coarse P1 ladder may look converging...
+    assert max(peak_beyond) > peak_p1["limit"]  # ...but quadratic elements find a larger peak than its "limit"
 
 # %% [markdown]
 # ## Conclusion
@@ -187,9 +192,12 @@ assert min(peak_changes) > 10 * max(usum_changes)
 #   the coarse rungs and shrinks (printed under Checks); Richardson's order and limit, recomputed by
 #   hand, match the ledger's. The coarsest rung is within a few percent of the limit (its error is
 #   printed) at a small fraction of the finest rung's cost (the cost ratio is printed).
-# * **The raw tissue stress peak at a sharp rim does not converge.** It moves by more than 10 % at
-#   every refinement, over ten times USUM's change (printed): the rim is a stress singularity, and
-#   a finer mesh only finds a larger maximum. Quoting it "to three digits" is meaningless.
+# * **The raw tissue stress peak at a sharp rim does not converge.** At every refinement of every
+#   ladder it moves by more than five times USUM's largest change (printed): the rim is a stress
+#   singularity, and a finer mesh only finds a larger maximum. On the coarse degree-1 ladder of the
+#   full run it can even look converging (its verdict and "limit" are printed), but the degree-2
+#   rungs then find peaks above that "limit" (printed): one ladder's Richardson limit is not to be
+#   trusted for a singular quantity. Quoting the peak "to three digits" is meaningless.
 # * **The alternatives.** Maxima that keep away from the singular points (outside the rims, beyond
 #   0.25 or 0.5 mm) are bounded, but the verdicts above show whether each has a Richardson limit on
 #   this ladder; on the coarse CI ladder some do and some do not, so a stress value should be

@@ -31,6 +31,11 @@
 # formulation (`effects.incompressibility = "mixed"`, Taylor-Hood P2 displacement / P1 pressure in
 # the tissue) makes the pressure $p$ an unknown of its own and enforces the volume change weakly,
 # which satisfies the inf-sup condition and does not lock.
+#
+# (Quadratic elements without the pressure field lock less but pay in load steps: measured on this
+# one-cone case at 0.5 N, P2 displacement needed 56 load steps and 148 s at $1/d \times 100$ where
+# the mixed formulation needed 6 steps and 10 s, and at $\times 1000$ it stopped after 100 steps.
+# They are left out here; `benchmarks/hardcases.py` runs them.)
 
 # %%
 # %matplotlib inline
@@ -55,7 +60,7 @@ ONE_CONE = ("geometry.cones=1", "loading.report_forces_n=[]")
 # %%
 factors = (1000,) if CI else (1, 10, 100, 1000)
 force = 0.25 if CI else 0.5
-formulations = ((1, "displacement"), (2, "mixed")) if CI else ((1, "displacement"), (2, "displacement"), (2, "mixed"))
+formulations = ((1, "displacement"), (2, "mixed"))
 locking = {}
 for factor in factors:
     for degree, form in formulations:

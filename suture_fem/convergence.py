@@ -502,7 +502,7 @@ def _verdict(estimates: dict[str, Any], reference: dict[str, Any] | None, unit: 
     kinds = {e["verdict"] for e in estimates.values()}
     finest = "; finest values " + ", ".join(f"{k}: {_fmt(e['values'][-1], unit)}" for k, e in estimates.items()
                                              if e["values"]) if len(estimates) > 1 else ""
-    agreement = ""
+    agreement, confirmed = "", True
     if reference is not None:
         notes = []
         for key, e in estimates.items():
@@ -510,16 +510,20 @@ def _verdict(estimates: dict[str, Any], reference: dict[str, Any] | None, unit: 
                 continue
             off = abs(e["values"][-1] - reference["value"]) / abs(reference["value"])
             last = e["changes_rel"][-1] if e["changes_rel"] else None
-            # the other ladder agrees when its finest value is within twice the larger of its own last
-            # change and the reference's correction
-            scale = max(last or 0.0, abs(reference["correction"] / reference["value"]))
-            notes.append(f"{key} finest {'within' if off <= 2 * scale else 'OFF by'} {100 * off:.2g} %")
+            # another ladder confirms the reference when its finest value lies within twice the
+            # reference's own uncertainty (its Richardson correction, at least SETTLED_REL)
+            ok = off <= 2 * max(abs(reference["correction"] / reference["value"]), SETTLED_REL)
+            confirmed = confirmed and ok
+            own = f"; its last change {100 * last:.2g} %" if last is not None else ""
+            notes.append(f"{key} finest {100 * off:.2g} % from it ({'confirms' if ok else 'does NOT confirm'}{own})")
         agreement = ("; " + ", ".join(notes)) if notes else ""
-    if "converging" in kinds:
+    if "converging" in kinds or "settled" in kinds:
         orders = ", ".join(f"{k}: {e['order']:.2f}" for k, e in estimates.items() if e["verdict"] == "converging")
-        return f"converges (observed order {orders}){agreement}"
-    if "settled" in kinds:
-        return f"settled: changes below {100 * SETTLED_REL:g} % per refinement (no order measurable){agreement}"
+        head = (f"converges (observed order {orders})" if orders else
+                f"settled: changes below {100 * SETTLED_REL:g} % per refinement (no order measurable)")
+        if not confirmed:
+            head = f"not settled: the {reference['from']} ladder suggests a limit ({head}) that another degree contradicts"
+        return head + agreement
     if "diverging" in kinds:
         return f"no limit in sight: the change per refinement does not shrink (observed order <= {MIN_ORDER:g}){finest}"
     if "oscillating" in kinds:
@@ -594,8 +598,9 @@ def markdown(title: str, ladder: Ladder, rungs: list[Rung], analysis: dict[str, 
         ref_cells = []
         for p in per_q.values():
             ref = p["reference"]
-            ref_cells.append(f"{_fmt(ref['value'], p['unit'])} (from {ref['from']})" if ref else "no limit")
-        lines.append("| **reference** | " + " | ".join(ref_cells) + " |")
+            ref_cells.append(f"{_fmt(ref['value'], p['unit'])} (from {ref['from']}, +- "
+                             f"{_pct(abs(ref['correction'] / ref['value']))})" if ref else "no limit")
+        lines.append("| **reference** (+- its Richardson correction) | " + " | ".join(ref_cells) + " |")
         lines += ["", "| quantity | ladder | rungs | observed order | extrapolated | change per refinement | verdict |",
                   "| --- | --- | --- | ---: | ---: | --- | --- |"]
         for p in per_q.values():
@@ -679,7 +684,7 @@ def plot(path: Path, title: str, rungs: list[Rung], analysis: dict[str, Any], ti
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(xlabel)
-        ax.set_ylabel("relative error against the reference (solid); change per refinement (dashed)")
+        ax.set_ylabel("relative error (solid), change per refinement (dashed)")
         ax.set_title(f"{title}: {fk} N")
         ax.grid(True, which="both", alpha=0.3)
     handles, labels = axes[0][0].get_legend_handles_labels()

@@ -6,7 +6,9 @@
 * EPTOEQV: maximum of sqrt(2/3 dev(h):dev(h)) with the Hencky strain h = 1/2 ln B (ANSYS's
   equivalent strain with effective Poisson ratio 0.5), over the same quadrature points.
 * SEQV outside the rims: the same maximum over points farther than ``output.rim_exclusion_mm``
-  from every cone corner. The sharp-corner peak is a singularity; this measure converges.
+  from every cone corner and from the two points where the thread crosses the tissue's end faces
+  (all re-entrant corners of the suture-tissue interface). The sharp-corner peak is a singularity;
+  this measure is not, but it still depends on the mesh (docs/ledger.md measures how much).
 * Reaction: the axial force of the fixed outer surface on the tissue, from the assembled residual
   at the fixed degrees of freedom; at equilibrium it is minus the applied force.
 Every maximum is reduced over all ranks with its location; ranks that own no cell of a region
@@ -77,7 +79,9 @@ class Outputs:
         self.physics = physics
         self.quantities = quantities
         self.rim_exclusion = scene["output"]["rim_exclusion_mm"] * meshmod.MM
-        self.corners = np.array(physics.tagged.geometry.corners, dtype=float).reshape(-1, 2) * meshmod.MM
+        g = physics.tagged.geometry
+        singular = [*g.corners, (g.r_thread, 0.0), (g.r_thread, g.length)]
+        self.corners = np.array(singular, dtype=float).reshape(-1, 2) * meshmod.MM
         V = physics.V
         self.node_xy = V.tabulate_dof_coordinates()[:, :2]
         dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
@@ -206,7 +210,7 @@ class Outputs:
             "seqv_pa": "maximum over quadrature points of the energy integral",
             "eptoeqv": "maximum over quadrature points of the energy integral",
             "seqv_outside_rim_pa": f"as seqv_pa, over points farther than {self.rim_exclusion / meshmod.MM:g} mm "
-            "from every cone corner",
+            "from every cone corner and from where the thread crosses the tissue's end faces",
         }
         return out
 

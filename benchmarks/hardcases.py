@@ -6,11 +6,14 @@ against the bulk modulus for the plain and the mixed formulation. Fine-mesh and 
 slow (the whole matrix takes tens of minutes on 2 cores).
 
     .venv/bin/python benchmarks/hardcases.py [--only "K x1000" ...] [--timeout 3600] [--out benchmarks/out/hardcases]
+
+With --only, the rows of the other cases are kept from the existing JSON, so the table stays whole.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 from pathlib import Path
@@ -29,16 +32,24 @@ def main() -> None:
     ap.add_argument("--out", default=str(ROOT / "benchmarks/out/hardcases"), help="output path without suffix")
     args = ap.parse_args()
     cases = [c for c in matrix() if args.only is None or any(c.name.startswith(p) for p in args.only)]
-    rows = []
     out = Path(args.out)
+    path = out.with_suffix(".json")
+    # rows of cases not rerun now are kept from an earlier run, in matrix order
+    kept = {r["case"]: r for r in json.loads(path.read_text())["rows"]} if path.is_file() else {}
+    order = {c.name: i for i, c in enumerate(matrix())}
+
+    def in_order() -> list[dict]:
+        return sorted(kept.values(), key=lambda r: order.get(r["case"], len(order)))
+
     with tempfile.TemporaryDirectory() as tmp:
         for i, case in enumerate(cases):
             row = run_case(case.name, case.overrides, Path(tmp) / f"case{i}", timeout_s=args.timeout)
             row.update(group=case.group, note=case.note)
-            rows.append(row)
+            kept[case.name] = row
             print(f"[{i + 1}/{len(cases)}] {case.name}: {row['outcome']} {row.get('cause') or ''} "
                   f"{row.get('load_reached_n')} N, {row.get('wall_time_s') or 0:.1f} s", flush=True)
-            write_json(out.with_suffix(".json"), {"rows": rows})  # keep what is done if interrupted
+            write_json(path, {"rows": in_order()})  # keep what is done if interrupted
+    rows = in_order()
     text = "## Hard-case matrix\n\n" + markdown(rows) + "\n## Case 1: USUM, EPTOEQV and tissue SEQV at 4 N against the bulk modulus\n\n" \
         + locking_table(rows)
     write_text(out.with_suffix(".md"), text)

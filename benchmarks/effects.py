@@ -52,15 +52,19 @@ def run(label: str, overrides: list[str], tmp: Path) -> dict:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     res = json.loads((out / "results.json").read_text()) if (out / "results.json").is_file() else {}
     res.update(exit_code=proc.returncode, process_wall_s=wall,
-               process_cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), label=label)
+               process_cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), label=label,
+               log_tail=proc.stderr.splitlines()[-40:])  # the run folder is temporary: keep how it ended
     print(f"  {label}: exit {proc.returncode}, {wall:.1f} s wall, {res['process_cpu_s']:.1f} s CPU", flush=True)
     return res
 
 
 def summary(res: dict) -> dict:
-    keys = ("label", "exit_code", "status", "usum_mm", "thread_end_displacement_mm", "dofs", "unknowns",
-            "newton_iterations", "load_steps", "cutbacks", "wall_time_s", "process_wall_s", "process_cpu_s")
+    keys = ("label", "exit_code", "status", "diagnosis", "force_reached_n", "usum_mm", "thread_end_displacement_mm",
+            "dofs", "unknowns", "newton_iterations", "load_steps", "cutbacks", "domain_rejections", "wall_time_s",
+            "process_wall_s", "process_cpu_s", "log_tail")
     out = {k: res.get(k) for k in keys}
+    if res.get("time_history"):
+        out["time_reached_s"] = res["time_history"][-1][0]
     out["usum_mm_at"] = {f"{a['force_n']:g}": a["usum_mm"] for a in res.get("at_forces", [])}
     out["timings_s"] = res.get("timings_s")
     return out
@@ -161,13 +165,15 @@ def part_walltime(tmp: Path) -> dict:
     every_qs = run("every effect but inertia (quasi-static reference)",
                    ["effects.incompressibility=mixed", "effects.gravity=true"], tmp)
     rec = {"paper": summary(paper), "every": summary(every), "every_quasi_static": summary(every_qs)}
-    if every.get("usum_mm") and every_qs.get("usum_mm"):
+    if every.get("status") == "converged" and every_qs.get("status") == "converged":
         rec["every_end_of_hold_vs_quasi_static"] = (every["usum_mm"] - every_qs["usum_mm"]) / every_qs["usum_mm"]
-    print("configuration | unknowns | Newton its | steps | wall (s) | CPU (s) | USUM (mm)")
+    print("configuration | status | unknowns | Newton its | steps | cutbacks | wall (s) | CPU (s) | USUM (mm)")
     for s in rec.values():
         if isinstance(s, dict):
-            print(f"{s['label']} | {s['unknowns']} | {s['newton_iterations']} | {s['load_steps']} | "
-                  f"{s['process_wall_s']:.1f} | {s['process_cpu_s']:.1f} | {s['usum_mm']}")
+            print(f"{s['label']} | {s['status']} | {s['unknowns']} | {s['newton_iterations']} | {s['load_steps']} | "
+                  f"{s['cutbacks']} | {s['process_wall_s']:.1f} | {s['process_cpu_s']:.1f} | {s['usum_mm']}")
+            if s.get("diagnosis"):
+                print(f"  stopped: {s['diagnosis']}")
     return rec
 
 

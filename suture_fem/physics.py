@@ -263,16 +263,16 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
         }
         left_out["suture pressure"] = "the suture keeps its displacement form; its pressure unknowns off the tissue are pinned to 0"
     outer_z = dolfinx.fem.locate_dofs_topological(W_u.sub(1), fdim, outer)
-    rigid_displacement = None
+    rigid_displacement = rigid_bc = None
     if effects.rigid:
         # The constraint as boundary conditions (u_r = 0, u_z = d on every suture dof), so everything that
         # reads bcs sees which dofs are constrained; SNES imposes it through Reduction, which updates d.
         rigid_displacement = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
         suture_cells = meshmod.region_cells(tagged, meshmod.SUTURE)
-        for comp, value in ((0, PETSc.ScalarType(0.0)), (1, rigid_displacement)):
-            dofs = np.flatnonzero(mark_dofs(W, suture_cells, W_u.sub(comp))).astype(np.int32)
-            bcs.append(dolfinx.fem.dirichletbc(value, dofs, W_u.sub(comp)))
-    unknowns = _unknowns(W, bcs, rigid_bc=bcs[-1] if effects.rigid else None)
+        radial, axial = (np.flatnonzero(mark_dofs(W, suture_cells, W_u.sub(c))).astype(np.int32) for c in (0, 1))
+        rigid_bc = dolfinx.fem.dirichletbc(rigid_displacement, axial, W_u.sub(1))
+        bcs += [dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), radial, W_u.sub(0)), rigid_bc]
+    unknowns = _unknowns(W, bcs, rigid_bc=rigid_bc)
     if effects.rigid:
         owned_kind = unknowns.kind[: unknowns.n_owned]
         notes["suture"] = {

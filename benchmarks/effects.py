@@ -60,7 +60,8 @@ def run(label: str, overrides: list[str], tmp: Path) -> dict:
 
 def summary(res: dict) -> dict:
     keys = ("label", "exit_code", "status", "diagnosis", "force_reached_n", "usum_mm", "thread_end_displacement_mm",
-            "dofs", "unknowns", "newton_iterations", "load_steps", "cutbacks", "domain_rejections", "wall_time_s",
+            "dofs", "unknowns", "newton_iterations", "load_steps", "cutbacks", "domain_rejections", "residual_floor_n",
+            "solves_at_residual_floor", "wall_time_s",
             "process_wall_s", "process_cpu_s", "log_tail")
     out = {k: res.get(k) for k in keys}
     if res.get("time_history"):

@@ -27,7 +27,8 @@ from typing import Any
 #: Causes a stopped run may name (solver.py).
 CAUSES = ("gent_limit", "inverted_element", "newton_divergence", "linear_solver")
 #: Relative mismatch |reaction + F| / F a converged run may leave: Newton stops at |R| <= 1e-10 N
-#: (solver.atol) on forces of order 1 N, so 1e-6 leaves four orders of margin and still catches a wrong sum.
+#: (solver.atol) or at the residual's round-off floor (below 1e-9 N on the paper scene) on forces of order
+#: 1 N, so 1e-6 leaves three orders of margin and still catches a wrong sum.
 BALANCE_TOL = 1e-6
 VOLUMETRIC = ("hypodermis.inv_d1", "hypodermis.inv_d2", "dermis.inv_d1", "dermis.inv_d2", "epidermis.inv_d")
 PAPER_INV_D = 50.0e3  # paper Table 3, every tissue layer
@@ -111,6 +112,7 @@ def classify(results: dict[str, Any] | None, exit_code: int | None) -> dict[str,
         "newton_iterations": results.get("newton_iterations"),
         "cutbacks": results.get("cutbacks"),
         "domain_rejections": results.get("domain_rejections"),
+        "residual_floor_n": results.get("residual_floor_n"),
         "load_steps": results.get("load_steps"),
         "unknowns": results.get("unknowns"),
         "usum_mm": results.get("usum_mm"),
@@ -159,7 +161,8 @@ def run_case(name: str, overrides: tuple[str, ...], out: Path, *, inprocess: boo
 COLUMNS = (("case", "case", "{}"), ("outcome", "outcome", "{}"), ("cause", "cause", "{}"),
            ("load_reached_n", "load reached (N)", "{:.4g}"), ("newton_iterations", "Newton its", "{}"),
            ("cutbacks", "cutbacks", "{}"), ("domain_rejections", "rejected trials", "{}"),
-           ("usum_mm", "USUM (mm)", "{:.4f}"), ("unknowns", "unknowns", "{}"),
+           ("residual_floor_n", "residual floor (N)", "{:.1e}"), ("usum_mm", "USUM (mm)", "{:.4f}"),
+           ("unknowns", "unknowns", "{}"),
            ("wall_time_s", "wall time (s)", "{:.1f}"))
 
 

@@ -95,6 +95,8 @@ def run_scene(
                 "linear_solver_fallbacks": history.fallbacks,
                 "domain_rejections": history.domain_rejections,
                 "line_search_switches": history.line_search_switches,
+                "residual_floor_n": history.residual_floor_n,
+                "solves_at_residual_floor": history.floor_above_atol,
             }
         )
 

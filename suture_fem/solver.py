@@ -20,6 +20,13 @@ Three guards keep hard cases from producing silent wrong numbers:
   :class:`~suture_fem.errors.SolveStopped` diagnosis that names the cause.
 * Linear solver fallback. When the LU factorisation fails, the next direct solver of the fallback
   list is tried for the same step, and the switch is logged.
+* Round-off floor. ``solver.atol`` is an absolute residual norm (N), but the residual of a stiff
+  suture tied into soft tissue cannot be driven below the rounding of the state it is evaluated at:
+  rounding every unknown by one unit in the last place changes R by about eps * ||A diag|x| ||_F
+  (A the Jacobian), 7e-10 N for the paper scene at 4 N, above the default atol of 1e-10 N. Newton
+  then stagnates there and a step whose relative test cannot help (the small increments of a time
+  history) fails for nothing. Each solve therefore uses max(atol, that floor) as its absolute
+  tolerance, and the run records the largest floor it used.
 * Line search fallback. The residual norm is a poor merit function where the tissue is nearly
   incompressible: from rest, the backtracking ("bt") line search creeps with steps of a few percent
   while full Newton steps ("basic") converge quadratically; where full steps leave the admissible
@@ -228,6 +235,9 @@ class NewtonSolver:
         self.A = self.A_full.ptap(self.reduction.T)
         self.b = self.reduction.create_vector()
         self.x = self.reduction.create_vector()
+        self._scaled: Any = None  # work matrix for the round-off floor
+        self._abs_x = self.x.duplicate()
+        self.floor = 0.0  # round-off floor of the residual at the start of the last solve (N)
         self.outside_domain = 0
         self.last_violation: dict[str, Any] | None = None
         self.options = solver_options
@@ -317,9 +327,27 @@ class NewtonSolver:
         self.A_full.ptap(self.reduction.T, A)
         self.timings.assembly += time.perf_counter() - t0
 
+    def round_off_floor(self) -> float:
+        """eps * ||A diag|x| ||_F: how much rounding each unknown by one ulp changes the residual (N).
+
+        A is the Jacobian at the state x a solve starts from (assembled here: the last one assembled may
+        belong to a failed trial far away); with random rounding signs this is the expected norm of the
+        change, and Newton iterates stagnate at about a third of it.
+        """
+        self._jacobian(self.snes, self.x, self.A, self.A)
+        self._abs_x.setArray(np.abs(self.x.getArray(readonly=True)))
+        if self._scaled is None:
+            self._scaled = self.A.duplicate(copy=True)
+        else:
+            self.A.copy(self._scaled, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self._scaled.diagonalScale(None, self._abs_x)
+        return float(np.finfo(float).eps * self._scaled.norm(PETSc.NormType.FROBENIUS))
+
     def solve(self) -> tuple[bool, int, str]:
         """One Newton solve from the current state; returns (converged, iterations, reason)."""
         self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
+        self.floor = self.round_off_floor()
+        self.snes.setTolerances(atol=max(self.options["atol"], self.floor))
         self.outside_domain = 0
         self.last_violation = None
         t0 = time.perf_counter()
@@ -351,8 +379,9 @@ class NewtonSolver:
         opts = PETSc.Options()  # a later solver in this process (a sweep) may reuse the prefix: leave nothing
         for key in [k for k in opts.getAll() if k.startswith(self.prefix)]:
             opts.delValue(key)
-        for obj in (self.A, self.A_full, self.b, self.b_full, self.x):
-            obj.destroy()
+        for obj in (self.A, self.A_full, self.b, self.b_full, self.x, self._abs_x, self._scaled):
+            if obj is not None:
+                obj.destroy()
         self.reduction.destroy()
 
 
@@ -386,6 +415,10 @@ class RampResult:
     fallbacks: list[str] = field(default_factory=list)
     domain_rejections: int = 0
     line_search_switches: int = 0
+    #: largest round-off floor of the residual (N) used as the absolute tolerance, and in how many solves
+    #: it was above ``solver.atol``
+    residual_floor_n: float = 0.0
+    floor_above_atol: int = 0
     unknowns: int = 0
     timings: Timings = field(default_factory=Timings)
 
@@ -558,6 +591,12 @@ def _follow(path: Path, newton: NewtonSolver, result: RampResult, on_converged: 
             ok, its, reason = newton.solve()
             result.newton_iterations += its
             result.domain_rejections += newton.outside_domain
+            if newton.floor > newton.options["atol"]:
+                if result.floor_above_atol == 0:
+                    log.info("the residual's round-off floor %.2e N is above solver.atol %.2e N: Newton stops at the "
+                             "floor (recorded as residual_floor_n)", newton.floor, newton.options["atol"])
+                result.floor_above_atol += 1
+            result.residual_floor_n = max(result.residual_floor_n, newton.floor)
             if ok and fraction < 1.0:
                 limit = newton.guard.limit_reached(fraction)
                 if limit is not None:

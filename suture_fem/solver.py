@@ -5,7 +5,7 @@ SNES solves for x, the unknowns of :class:`~suture_fem.physics.Unknowns`, with t
 motion d onto every axial suture dof. The residual and Jacobian are T^T R(T x) and T^T A T (PETSc
 PtAP), so the Dirichlet conditions (all zero) and the rigid constraint need no special rows.
 
-Three guards keep hard cases from producing silent wrong numbers:
+These guards keep hard cases from producing silent wrong numbers or stalling for nothing:
 
 * Admissible domain. Before a residual is assembled, every quadrature point is checked for J > 0
   and, in Gent regions, I1bar - 3 < Jm. A trial state outside that domain is never evaluated into

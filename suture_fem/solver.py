@@ -237,7 +237,7 @@ class NewtonSolver:
         self.x = self.reduction.create_vector()
         self._scaled: Any = None  # work matrix for the round-off floor
         self._abs_x = self.x.duplicate()
-        self.floor = 0.0  # round-off floor of the residual at the start of the last solve (N)
+        self.floor = 0.0  # round-off floor of the residual at the start of the last solve that assembled A (N)
         self.outside_domain = 0
         self.last_violation: dict[str, Any] | None = None
         self.options = solver_options
@@ -326,16 +326,20 @@ class NewtonSolver:
         self._assemble_full_jacobian()
         self.A_full.ptap(self.reduction.T, A)
         self.timings.assembly += time.perf_counter() - t0
+        if snes.getIterationNumber() == 0:  # the state this solve starts from: set its round-off floor
+            self.floor = self.round_off_floor(x)
+            snes.setTolerances(atol=max(self.options["atol"], self.floor))
 
-    def round_off_floor(self) -> float:
+    def round_off_floor(self, x: Any) -> float:
         """eps * ||A diag|x| ||_F: how much rounding each unknown by one ulp changes the residual (N).
 
-        A is the Jacobian at the state x a solve starts from (assembled here: the last one assembled may
-        belong to a failed trial far away); with random rounding signs this is the expected norm of the
-        change, and Newton iterates stagnate at about a third of it.
+        A is the Jacobian last assembled, at x. :meth:`_jacobian` calls this with the first Jacobian of
+        each solve, at the state the solve starts from (never at a later iterate, which may be far
+        off); the floor then holds for that solve's iterations, and its first residual test (made
+        before any Jacobian) uses the previous solve's floor. With random rounding signs this is the
+        expected norm of the change; Newton iterates stagnate at about a third of it.
         """
-        self._jacobian(self.snes, self.x, self.A, self.A)
-        self._abs_x.setArray(np.abs(self.x.getArray(readonly=True)))
+        self._abs_x.setArray(np.abs(x.getArray(readonly=True)))
         if self._scaled is None:
             self._scaled = self.A.duplicate(copy=True)
         else:
@@ -346,8 +350,6 @@ class NewtonSolver:
     def solve(self) -> tuple[bool, int, str]:
         """One Newton solve from the current state; returns (converged, iterations, reason)."""
         self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
-        self.floor = self.round_off_floor()
-        self.snes.setTolerances(atol=max(self.options["atol"], self.floor))
         self.outside_domain = 0
         self.last_violation = None
         t0 = time.perf_counter()

@@ -31,7 +31,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from suture_fem.io import write_json  # noqa: E402
+from suture_fem.support.io import write_json  # noqa: E402
 
 #: Mass-proportional damping for the damped hold. The thread end rings with a period of about 3.7 ms
 #: (omega = 1700 rad/s, measured by the jerk history with 0.5 ms steps): alpha = 420/s gives a damping

@@ -21,8 +21,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from suture_fem.hardcases import locking_table, markdown, matrix, run_case  # noqa: E402
-from suture_fem.io import write_json, write_text  # noqa: E402
+from suture_fem.studies.hardcases import locking_table, markdown, matrix, run_case  # noqa: E402
+from suture_fem.support.io import write_json, write_text  # noqa: E402
 
 
 def main() -> None:

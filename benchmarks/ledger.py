@@ -21,7 +21,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from suture_fem.io import write_json, write_text  # noqa: E402
+from suture_fem.support.io import write_json, write_text  # noqa: E402
 
 #: name -> (title, extra arguments of `suture-fem convergence paper`)
 LADDERS = {

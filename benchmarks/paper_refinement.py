@@ -18,7 +18,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from suture_fem.io import write_json  # noqa: E402
+from suture_fem.support.io import write_json  # noqa: E402
 
 
 def run(refinement: int, extra: list[str]) -> dict:

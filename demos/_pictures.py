@@ -24,8 +24,8 @@ import matplotlib.colors as mcolors  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import pyvista as pv  # noqa: E402
 
-from suture_fem import mesh as meshmod  # noqa: E402
 from suture_fem import plots  # noqa: E402
+from suture_fem.geometry import regions  # noqa: E402
 
 pv.OFF_SCREEN = True
 SUTURE_GREY = "#9a9a9a"
@@ -66,7 +66,7 @@ def render(
     plotter = pv.Plotter(off_screen=True, window_size=(width, height))
     plotter.set_background("white")
     log = isinstance(norm, mcolors.LogNorm)
-    suture = np.isin(grid.cell_data["region"], meshmod.SUTURE)
+    suture = np.isin(grid.cell_data["region"], regions.SUTURE)
     coloured = grid.extract_cells(np.flatnonzero(~suture)) if tissue_only else grid
     plotter.add_mesh(coloured, scalars=scalars, cmap=cmap, clim=(norm.vmin, norm.vmax), log_scale=log,
                      show_scalar_bar=False, interpolate_before_map=True)

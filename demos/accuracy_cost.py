@@ -48,8 +48,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 from mpi4py import MPI
 
-from suture_fem import convergence as cv
-from suture_fem.cli import setup_logging
+from suture_fem.studies import convergence as cv
+from suture_fem.support.logging import setup_logging
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
 comm = MPI.COMM_WORLD

@@ -54,15 +54,14 @@ import os
 import time
 from pathlib import Path
 
+import _pictures as pic  # demos/_pictures.py: pyvista rendering of a solved state
 import matplotlib.colors as mcolors
 import matplotlib.pyplot as plt
 import numpy as np
 from mpi4py import MPI
 
-import _pictures as pic  # demos/_pictures.py: pyvista rendering of a solved state
-from suture_fem.cli import setup_logging
-from suture_fem.run import run_scene
-from suture_fem.scene import load_scene
+from suture_fem.pipeline import load_scene, run_scene
+from suture_fem.support.logging import setup_logging
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation and fewer cases
 comm = MPI.COMM_WORLD

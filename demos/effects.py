@@ -45,9 +45,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from mpi4py import MPI
 
-from suture_fem.cli import setup_logging
-from suture_fem.run import run_scene
-from suture_fem.scene import load_scene
+from suture_fem.pipeline import load_scene, run_scene
+from suture_fem.support.logging import setup_logging
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
 comm = MPI.COMM_WORLD

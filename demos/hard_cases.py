@@ -46,10 +46,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 from mpi4py import MPI
 
-from suture_fem import hardcases as hc
-from suture_fem import maxload
-from suture_fem.cli import setup_logging
-from suture_fem.scene import load_scene
+from suture_fem.pipeline import load_scene
+from suture_fem.studies import hardcases as hc
+from suture_fem.studies import maxload
+from suture_fem.support.logging import setup_logging
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
 comm = MPI.COMM_WORLD

@@ -52,9 +52,9 @@ import numpy as np
 from IPython.display import Image, display
 from mpi4py import MPI
 
-from suture_fem import reproduce as rp
-from suture_fem.cli import setup_logging
-from suture_fem.scene import load_scene
+from suture_fem.pipeline import load_scene
+from suture_fem.studies import reproduce as rp
+from suture_fem.support.logging import setup_logging
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
 comm = MPI.COMM_WORLD

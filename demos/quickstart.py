@@ -48,17 +48,16 @@ import json
 import os
 from pathlib import Path
 
+import _pictures as pic  # demos/_pictures.py: pyvista rendering of a solved state
 import matplotlib.colors as mcolors
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Image, display
 from mpi4py import MPI
 
-import _pictures as pic  # demos/_pictures.py: pyvista rendering of a solved state
 from suture_fem import plots
-from suture_fem.cli import setup_logging
-from suture_fem.run import run_scene
-from suture_fem.scene import load_scene
+from suture_fem.pipeline import load_scene, run_scene
+from suture_fem.support.logging import setup_logging
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
 comm = MPI.COMM_WORLD  # the library takes its communicator from the caller
@@ -125,7 +124,7 @@ ax.set_xlim(left=0)
 ax.set_ylim(bottom=0)
 ax.grid(alpha=0.3)
 ax.legend(loc="lower right")
-ax.set_title(f"paper scene, {scene['geometry']['cones']} hollow cones")
+ax.set_title(f"paper scene, {scene.geometry.cones} hollow cones")
 plt.show()
 
 # %% [markdown]

@@ -21,13 +21,14 @@ panels, axes in mm and the colour bar.
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
-from suture_fem import compat
-from suture_fem import mesh as meshmod
+from suture_fem.geometry import regions
+from suture_fem.support import compat
 
 #: Colour map of the contour pictures, drawn in bands (as ANSYS does) of a round step.
 CMAP = "turbo"
@@ -44,7 +45,8 @@ def _pyvista() -> Any:
 
 def file_figure(**kwargs: Any) -> Any:
     """A matplotlib Figure drawn for a file only, without pyplot: the process's backend (a notebook's
-    inline backend, an interactive window) is left alone, and the figure is never shown or kept open."""
+    inline backend, an interactive window) is left alone, and the figure is never shown or kept open.
+    """
     from matplotlib.figure import Figure
 
     return Figure(**kwargs)
@@ -79,7 +81,7 @@ def field_grid(state: Any) -> Any:
     global_nodes = index_map.local_to_global(np.arange(len(x), dtype=np.int32))
     connectivity = cells.reshape(-1, nodes_per_cell).astype(np.int64) if num_owned else np.zeros((0, 1), np.int64)
     connectivity[:, 1:] = global_nodes[connectivity[:, 1:]]
-    u_mm = u.x.array.reshape(-1, 2)[: len(x)] / meshmod.MM
+    u_mm = u.x.array.reshape(-1, 2)[: len(x)] / regions.MM
     tags = np.zeros(num_owned, dtype=np.int32)
     ct = physics.tagged.cell_tags
     in_range = ct.indices < num_owned
@@ -87,7 +89,7 @@ def field_grid(state: Any) -> Any:
     cell_data = {"region": tags}
     if outputs is not None and outputs.tensor_exprs:
         cell_data.update({k: v[:num_owned] for k, v in outputs.cell_maxima().items()})
-    parts = comm.gather((connectivity, types, global_nodes, x[:, :2] / meshmod.MM, u_mm, cell_data), root=0)
+    parts = comm.gather((connectivity, types, global_nodes, x[:, :2] / regions.MM, u_mm, cell_data), root=0)
     if comm.rank != 0:
         return None
     pv = _pyvista()
@@ -224,7 +226,7 @@ def render_usum(
     hi = np.max([s.bounds[1::2] for s in sections], axis=0)
     pad = 0.02 * (hi[0] - lo[0])
     bounds = (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad)
-    outlines = (meshmod.SUTURE, (meshmod.HYPODERMIS,), (meshmod.EPIDERMIS,))
+    outlines = (regions.SUTURE, (regions.Cell.HYPODERMIS,), (regions.Cell.EPIDERMIS,))
     images = [_render_panel(s, bounds, clim, len(boundaries) - 1, outlines) for s in sections]
 
     aspect = (bounds[3] - bounds[2]) / (bounds[1] - bounds[0])

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from suture_fem import compat
-from suture_fem import mesh as meshmod
-from suture_fem.effects import HOLD_SKIPPED
-from suture_fem.physics import FREE, build_physics
-from suture_fem.run import run_scene
-from suture_fem.scene import load_scene
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry import regions
+from suture_fem.physics.effects import HOLD_SKIPPED
+from suture_fem.physics.problem import FREE, build_physics
+from suture_fem.pipeline import load_scene, run_scene
+from suture_fem.support import compat
 from tests.conftest import FAST
 
 BASE = FAST + ["loading.report_forces_n=[]"]
@@ -27,7 +27,7 @@ BALANCE_TOL = 1e-6
 
 def physics_of(overrides: list[str]):
     scene = load_scene("paper", BASE + overrides)
-    return build_physics(meshmod.create_mesh(MPI.COMM_SELF, scene), scene), scene
+    return build_physics(meshmod.create_mesh(MPI.COMM_SELF, scene.geometry, scene.mesh), scene), scene
 
 
 def solve(overrides: list[str], out, quantities_check=None):
@@ -45,7 +45,7 @@ def elastic(tmp_path_factory):
 
 def suture_nodes(physics) -> np.ndarray:
     V = physics.V
-    cells = meshmod.region_cells(physics.tagged, meshmod.SUTURE)
+    cells = meshmod.region_cells(physics.tagged, regions.SUTURE)
     return np.unique(V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)[cells])
 
 

@@ -80,16 +80,17 @@ PARTITIONED_RUN = """
 import json, sys
 import numpy as np
 from mpi4py import MPI
-from suture_fem import mesh
-from suture_fem.run import run_scene
-from suture_fem.scene import load_scene
+from suture_fem.geometry import mesh
+from suture_fem.geometry import regions
+from suture_fem.pipeline import run_scene
+from suture_fem.pipeline import load_scene
 
 comm = MPI.COMM_WORLD
 scene = load_scene("paper", sys.argv[2:])
-tagged = mesh.create_mesh(comm, scene)
+tagged = mesh.create_mesh(comm, scene.geometry, scene.mesh)
 owned = tagged.mesh.topology.index_map(2).size_local
 ct = tagged.cell_tags
-cones = comm.gather(int(np.sum(ct.values[ct.indices < owned] == mesh.CONE)), root=0)
+cones = comm.gather(int(np.sum(ct.values[ct.indices < owned] == regions.Cell.CONE)), root=0)
 run_scene(scene, sys.argv[1], comm)
 if comm.rank == 0:
     json.dump(cones, open(sys.argv[1] + "/cone_cells_per_rank.json", "w"))

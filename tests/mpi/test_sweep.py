@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import cli
-from tests.mpi.conftest import REL, SCENE
+from tests.mpi.conftest import SCENE
 from tests.mpi.test_parallel import assert_same_state
 
 pytestmark = pytest.mark.mpi

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from suture_fem.scene import parse_override
-from suture_fem.sweep import SweepError, load_sweep, toml_value
+from suture_fem.studies.sweep import SweepError, load_sweep, toml_value
 
 GRID = """
 base = "paper"
@@ -28,8 +28,8 @@ def test_grid_is_every_combination_first_key_slowest(tmp_path):
     assert [(c.varied["geometry.cones"], c.varied["loading.force_n"]) for c in sweep.cases] == [
         (1, 1.0), (1, 2.5), (2, 1.0), (2, 2.5), (3, 1.0), (3, 2.5)]
     assert sweep.varied_keys == ["geometry.cones", "loading.force_n"]
-    assert all(c.scene["mesh"]["degree"] == 1 for c in sweep.cases)
-    assert [c.scene["geometry"]["cones"] for c in sweep.cases] == [1, 1, 2, 2, 3, 3]
+    assert all(c.scene.mesh.degree == 1 for c in sweep.cases)
+    assert [c.scene.geometry.cones for c in sweep.cases] == [1, 1, 2, 2, 3, 3]
 
 
 def test_folder_names_are_stable_and_follow_the_scene(tmp_path):
@@ -72,7 +72,7 @@ def test_folder_names_follow_the_base_scene_file(tmp_path):
     (tmp_path / "base.toml").write_text("[geometry]\ncones = 2\n")
     text = 'base = "base.toml"\n[grid]\n"loading.force_n" = [1.0]\n'
     before = load_sweep(write(tmp_path, text)).cases[0]
-    assert before.scene["geometry"]["cones"] == 2
+    assert before.scene.geometry.cones == 2
     (tmp_path / "base.toml").write_text("[geometry]\ncones = 3\n")
     assert load_sweep(write(tmp_path, text)).cases[0].name != before.name
 

@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-from suture_fem import reproduce as rp
+from suture_fem.studies import reproduce as rp
 
 COARSE = ["mesh.degree=1", "mesh.refinement=0", "solver.initial_step=0.1", "solver.max_step=0.25"]
 
@@ -196,13 +196,14 @@ GRID_SCRIPT = """
 import json, sys
 import numpy as np
 from mpi4py import MPI
-from suture_fem import mesh as meshmod, plots
-from suture_fem.physics import build_physics
-from suture_fem.scene import load_scene
+from suture_fem import plots
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.physics.problem import build_physics
+from suture_fem.pipeline import load_scene
 
 comm = MPI.COMM_WORLD
 scene = load_scene("paper", sys.argv[1:])
-physics = build_physics(meshmod.create_mesh(comm, scene), scene)
+physics = build_physics(meshmod.create_mesh(comm, scene.geometry, scene.mesh), scene)
 physics.u.interpolate(lambda x: np.stack([2.0 * x[0] + x[1], 3.0 * x[1]]))  # linear: exact at the nodes
 grid = plots.field_grid(physics)
 n_cells = comm.allreduce(physics.mesh.topology.index_map(2).size_local)

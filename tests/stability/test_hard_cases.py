@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from suture_fem.hardcases import BALANCE_TOL, FAST_SUBSET, run_case
+from suture_fem.studies.hardcases import BALANCE_TOL, FAST_SUBSET, run_case
 from tests.conftest import FAST, run_inprocess
 
 GENT = "Gent jm = 0.05"
@@ -75,15 +75,15 @@ def test_trial_states_outside_the_domain_are_rejected_and_the_solve_still_conver
 def test_outside_domain_residual_is_finite_and_names_the_violation():
     from mpi4py import MPI
 
-    from suture_fem import compat
-    from suture_fem import mesh as meshmod
-    from suture_fem.physics import build_physics
-    from suture_fem.scene import load_scene
-    from suture_fem.solver import OUTSIDE_DOMAIN_RESIDUAL, NewtonSolver, Timings
+    from suture_fem.geometry import mesh as meshmod
+    from suture_fem.physics.problem import build_physics
+    from suture_fem.pipeline import load_scene
+    from suture_fem.solve.newton import OUTSIDE_DOMAIN_RESIDUAL, NewtonSolver, Timings
+    from suture_fem.support import compat
 
     scene = load_scene("paper", FAST)
-    physics = build_physics(meshmod.create_mesh(MPI.COMM_SELF, scene), scene)
-    newton = NewtonSolver(physics, scene["solver"], Timings())
+    physics = build_physics(meshmod.create_mesh(MPI.COMM_SELF, scene.geometry, scene.mesh), scene)
+    newton = NewtonSolver(physics, scene.solver, Timings())
     try:
         xy = physics.V.tabulate_dof_coordinates()[:, :2]
         u = physics.u.x.array.reshape(-1, 2)
@@ -119,8 +119,8 @@ def test_failing_linear_solver_falls_back_and_says_so(subset, tmp_path, capfd):
 def test_max_load_search_brackets_the_gent_limit_to_its_tolerance(subset, tmp_path):
     from mpi4py import MPI
 
-    from suture_fem.maxload import max_load
-    from suture_fem.scene import load_scene
+    from suture_fem.pipeline import load_scene
+    from suture_fem.studies.maxload import max_load
 
     scene = load_scene("paper", list(FAST_SUBSET[GENT]))
     tol, up_to = 0.02, 3.5
@@ -133,7 +133,7 @@ def test_max_load_search_brackets_the_gent_limit_to_its_tolerance(subset, tmp_pa
     row = subset[GENT][0]
     attempted = json.loads((tmp_path / "results.json").read_text())["diagnosis"]["attempted_n"]
     assert attempted == hi
-    min_step_n = scene["solver"]["min_step"] * scene["loading"]["force_n"]
+    min_step_n = scene.solver.min_step * scene.loading.force_n
     assert lo <= row["load_reached_n"] + 2 * min_step_n and row["load_reached_n"] <= hi
 
 
@@ -159,17 +159,17 @@ def test_newton_stops_at_the_round_off_floor_instead_of_stagnating_below_it():
     (the cause of the every-effect time history's stop in its hold, docs/effects.md)."""
     from mpi4py import MPI
 
-    from suture_fem import compat
-    from suture_fem import mesh as meshmod
-    from suture_fem.physics import build_physics
-    from suture_fem.scene import load_scene
-    from suture_fem.solver import NewtonSolver, Timings, ramp
+    from suture_fem.geometry import mesh as meshmod
+    from suture_fem.physics.problem import build_physics
+    from suture_fem.pipeline import load_scene
+    from suture_fem.solve.newton import NewtonSolver, Timings, ramp
+    from suture_fem.support import compat
 
     scene = load_scene("paper", FAST + ["loading.report_forces_n=[]", "solver.atol=1e-14"])
-    physics = build_physics(meshmod.create_mesh(MPI.COMM_SELF, scene), scene)
+    physics = build_physics(meshmod.create_mesh(MPI.COMM_SELF, scene.geometry, scene.mesh), scene)
     history = ramp(physics, scene, lambda *args, **kwargs: None)
-    assert history.residual_floor_n > scene["solver"]["atol"] and history.floor_above_atol > 0
-    newton = NewtonSolver(physics, scene["solver"], Timings())
+    assert history.residual_floor_n > scene.solver.atol and history.floor_above_atol > 0
+    newton = NewtonSolver(physics, scene.solver, Timings())
     try:
         x, b0, b1 = (newton.reduction.create_vector() for _ in range(3))
         newton.reduction.restrict(compat.function_vector(physics.state), newton.x)

@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
+import dolfinx
+import dolfinx.fem
+import dolfinx.mesh
 import numpy as np
 import ufl
 from mpi4py import MPI
 
-import dolfinx
-import dolfinx.fem
-import dolfinx.mesh
-
-from suture_fem import compat, kinematics
+from suture_fem.physics import kinematics
+from suture_fem.support import compat
 
 
 def test_deformation_gradient_of_a_known_field():

@@ -8,17 +8,16 @@ from __future__ import annotations
 
 import math
 
+import dolfinx
+import dolfinx.fem
+import dolfinx.mesh
 import numpy as np
 import pytest
 import ufl
 from mpi4py import MPI
 
-import dolfinx
-import dolfinx.fem
-import dolfinx.mesh
-
-from suture_fem import compat
-from suture_fem.materials import Gent, StVenantKirchhoff, Yeoh, first_piola
+from suture_fem.physics.materials import Gent, StVenantKirchhoff, Yeoh, first_piola
+from suture_fem.support import compat
 
 HYPODERMIS = Yeoh(c=(400.0, 1400.0), inv_d=(50e3, 50e3))
 EPIDERMIS = Gent(mu=4000.0, jm=1.2, inv_d=50e3)

@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import pytest
 
-from suture_fem.errors import SceneError
-from suture_fem.geometry import Geometry
-from suture_fem.scene import builtin_names, load_scene, parse_override
+from suture_fem.geometry.section import Geometry
+from suture_fem.pipeline import load_scene
+from suture_fem.scene import builtin_names, parse_override
+from suture_fem.support.errors import SceneError
 
 
 def test_paper_scene_resolves_with_documented_defaults():
     s = load_scene("paper")
-    assert s["geometry"]["cones"] == 4 and s["geometry"]["cone_kind"] == "hollow"
-    assert s["loading"]["force_n"] == 4.0
-    assert s["materials"]["hypodermis"]["c20"] == 1400.0
-    assert s["materials"]["epidermis"]["jm"] == 1.2
+    assert s.geometry.cones == 4 and s.geometry.cone_kind == "hollow"
+    assert s.loading.force_n == 4.0
+    assert s.materials.hypodermis.params["c20"] == 1400.0
+    assert s.materials.epidermis.params["jm"] == 1.2
     assert "paper" in builtin_names()
 
 
@@ -23,9 +24,9 @@ def test_overrides_are_typed_as_toml_values():
     assert parse_override("geometry.cone_kind=full") == ("geometry.cone_kind", "full")
     assert parse_override("loading.report_forces_n=[0.5, 1]") == ("loading.report_forces_n", [0.5, 1])
     s = load_scene("paper", ["geometry.cones=2", "loading.force_n=1.5", "mesh.refinement=1"])
-    assert (s["geometry"]["cones"], s["loading"]["force_n"], s["mesh"]["refinement"]) == (2, 1.5, 1)
+    assert (s.geometry.cones, s.loading.force_n, s.mesh.refinement) == (2, 1.5, 1)
     # report forces above the peak are not on the ramp and are dropped, not an error
-    assert s["loading"]["report_forces_n"] == [1.0]
+    assert s.loading.report_forces_n == (1.0,)
 
 
 @pytest.mark.parametrize(
@@ -76,7 +77,7 @@ def test_material_model_can_be_switched(tmp_path):
     p = tmp_path / "gent_dermis.toml"
     p.write_text('[materials.dermis]\nmodel = "gent"\nmu = 8000.0\njm = 2.0\ninv_d = 50e3\n')
     s = load_scene(str(p))
-    assert s["materials"]["dermis"] == {"model": "gent", "mu": 8000.0, "jm": 2.0, "inv_d": 50e3}
+    assert s.materials.dermis.as_dict() == {"model": "gent", "mu": 8000.0, "jm": 2.0, "inv_d": 50e3}
     with pytest.raises(SceneError, match="materials.dermis.inv_d is required"):
         p.write_text('[materials.dermis]\nmodel = "gent"\nmu = 8000.0\njm = 2.0\n')
         load_scene(str(p))
@@ -84,20 +85,20 @@ def test_material_model_can_be_switched(tmp_path):
 
 def test_geometry_layout_follows_the_scene():
     s = load_scene("paper", ["geometry.cones=3", "geometry.margin_far_mm=2", "geometry.margin_pull_mm=4"])
-    g = Geometry.from_scene(s)
-    sp, h = s["geometry"]["cone_spacing_mm"], s["geometry"]["cone_height_mm"]
+    g = Geometry.from_section(s.geometry)
+    sp, h = s.geometry.cone_spacing_mm, s.geometry.cone_height_mm
     assert g.length == pytest.approx(2 + 2 * sp + h + 4)
     assert [c.base_z for c in g.cones] == pytest.approx([2, 2 + sp, 2 + 2 * sp])
     assert all(c.apex_z == pytest.approx(c.base_z + h) for c in g.cones)  # apex toward the pulled end
-    assert g.z_end == pytest.approx(g.length + s["geometry"]["thread_free_length_mm"])
+    assert g.z_end == pytest.approx(g.length + s.geometry.thread_free_length_mm)
     assert (g.r_hypodermis, g.r_dermis, g.r_epidermis) == pytest.approx((3.0, 3.5, 3.6))
-    flipped = Geometry.from_scene(load_scene("paper", ["geometry.cone_orientation=base_to_pull"]))
+    flipped = Geometry.from_section(load_scene("paper", ["geometry.cone_orientation=base_to_pull"]).geometry)
     assert all(c.apex_z < c.base_z for c in flipped.cones)
-    assert Geometry.from_scene(load_scene("paper", ["geometry.cones=0"])).cones == []
+    assert Geometry.from_section(load_scene("paper", ["geometry.cones=0"]).geometry).cones == []
 
 
 def test_hollow_cone_wall_has_the_specified_normal_thickness():
-    g = Geometry.from_scene(load_scene("paper", ["geometry.cones=1"]))
+    g = Geometry.from_section(load_scene("paper", ["geometry.cones=1"]).geometry)
     pts = [seg[1][0] for seg in g.cones[0].outline]
     (r_t, z_a), (r_top, _), (r_b, z_b), (r_bi, _), (r_ci, z_c), _ = pts
     # outer and inner walls are parallel lines a normal distance 0.13 mm apart

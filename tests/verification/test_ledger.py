@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from suture_fem.convergence import QUANTITIES, richardson, two_rung_error
+from suture_fem.studies.convergence import QUANTITIES, richardson, two_rung_error
 from tests.conftest import FAST, sets
 
 
@@ -93,18 +93,18 @@ def test_convergence_rejects_a_bad_ladder_before_solving(tmp_path):
 
 
 def test_singular_points_are_corners_junctions_and_where_interfaces_meet_the_end_faces():
-    from suture_fem.convergence import singular_points
-    from suture_fem.geometry import Geometry
-    from suture_fem.scene import load_scene
+    from suture_fem.geometry.section import Geometry
+    from suture_fem.pipeline import load_scene
+    from suture_fem.studies.convergence import singular_points
 
-    sharp = Geometry.from_scene(load_scene("paper", ["geometry.cones=1"]))
+    sharp = Geometry.from_section(load_scene("paper", ["geometry.cones=1"]).geometry)
     points = singular_points(sharp, 0.0)
     r_t, cone = sharp.r_thread, sharp.cones[0]
     assert set(map(tuple, sharp.corners)) <= set(points)
     assert (r_t, 0.0) in points and (r_t, sharp.length) in points  # the thread leaves the tissue's end faces
     assert (sharp.r_epidermis, sharp.length) in points  # the clamped outer surface meets a free end face
     assert (r_t, cone.apex_z) in points  # the apex cap meets the thread
-    rounded = Geometry.from_scene(load_scene("paper", ["geometry.cones=1", "geometry.cone_fillet_mm=0.05"]))
+    rounded = Geometry.from_section(load_scene("paper", ["geometry.cones=1", "geometry.cone_fillet_mm=0.05"]).geometry)
     kept = singular_points(rounded, 0.05)
     assert not any(abs(p[1] - cone.base_z) < 1e-9 for p in kept)  # the rounded base rim is not singular
     assert len(kept) == len(points) - 2

@@ -29,8 +29,8 @@ import math
 import pytest
 from mpi4py import MPI
 
-from suture_fem.materials import Gent, StVenantKirchhoff, Yeoh
-from suture_fem.verification import manufactured_solve, observed_rates
+from suture_fem.physics.materials import Gent, StVenantKirchhoff, Yeoh
+from suture_fem.studies.verification import manufactured_solve, observed_rates
 
 L = 1e-3  # m
 

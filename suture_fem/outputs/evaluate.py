@@ -28,20 +28,17 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from suture_fem import compat, kinematics
-from suture_fem import mesh as meshmod
-from suture_fem.materials import cauchy
-from suture_fem.parallel import on_root
-from suture_fem.physics import REGION_OF_TAG, Physics, quadrature_degree
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry.regions import MM, REGION_TAGS, TISSUE_REGIONS
+from suture_fem.physics import kinematics
+from suture_fem.physics.materials import cauchy
+from suture_fem.physics.problem import REGION_OF_TAG, Physics, quadrature_degree
+from suture_fem.scene.schema import OutputSection
+from suture_fem.support import compat
+from suture_fem.support.parallel import on_root
 
 #: Regions reported separately (the suture is thread + cones).
-REPORT_REGIONS = {
-    "hypodermis": (meshmod.HYPODERMIS,),
-    "dermis": (meshmod.DERMIS,),
-    "epidermis": (meshmod.EPIDERMIS,),
-    "suture": (meshmod.THREAD, meshmod.CONE),
-}
-TISSUE_REGIONS = ("hypodermis", "dermis", "epidermis")
+REPORT_REGIONS = REGION_TAGS
 
 
 def von_mises(s: np.ndarray) -> np.ndarray:
@@ -66,7 +63,7 @@ def _global_max(comm: Any, values: np.ndarray, coords: np.ndarray) -> tuple[floa
     """Max over ranks with its (r, z) in mm; (-inf, None) where nobody owns a value."""
     if len(values):
         k = int(np.argmax(values))
-        local = (float(values[k]), [float(c) / meshmod.MM for c in coords[k, :2]])
+        local = (float(values[k]), [float(c) / MM for c in coords[k, :2]])
     else:
         local = (-np.inf, None)
     return max(comm.allgather(local), key=lambda t: t[0])
@@ -75,13 +72,13 @@ def _global_max(comm: Any, values: np.ndarray, coords: np.ndarray) -> tuple[floa
 class Outputs:
     """Compiles what the outputs need once, then evaluates them for the current state."""
 
-    def __init__(self, physics: Physics, scene: dict[str, Any], quantities: tuple[str, ...] = ("usum", "seqv", "eptoeqv")):
+    def __init__(self, physics: Physics, output: OutputSection, quantities: tuple[str, ...] = ("usum", "seqv", "eptoeqv")):
         self.physics = physics
         self.quantities = quantities
-        self.rim_exclusion = scene["output"]["rim_exclusion_mm"] * meshmod.MM
+        self.rim_exclusion = output.rim_exclusion_mm * MM
         g = physics.tagged.geometry
         singular = [*g.corners, (g.r_thread, 0.0), (g.r_thread, g.length)]
-        self.corners = np.array(singular, dtype=float).reshape(-1, 2) * meshmod.MM
+        self.corners = np.array(singular, dtype=float).reshape(-1, 2) * MM
         V = physics.V
         self.node_xy = V.tabulate_dof_coordinates()[:, :2]
         dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
@@ -109,7 +106,7 @@ class Outputs:
         """Axial displacement of the pulled end face (2 pi r-weighted mean), mm."""
         comm = self.physics.comm
         val = dolfinx.fem.assemble_scalar(self.physics.form("end_displacement"))
-        return comm.allreduce(val, op=MPI.SUM) / self.physics.pull_area / meshmod.MM
+        return comm.allreduce(val, op=MPI.SUM) / self.physics.pull_area / MM
 
     def strain_energy_j(self) -> float:
         val = dolfinx.fem.assemble_scalar(self.physics.form("energy"))
@@ -178,7 +175,7 @@ class Outputs:
         for region, nodes in self.region_nodes.items():
             regions[region] = {}
             if "usum" in self.quantities:
-                mag = np.linalg.norm(u[nodes], axis=1) / meshmod.MM
+                mag = np.linalg.norm(u[nodes], axis=1) / MM
                 keep("usum_mm", region, *_global_max(comm, mag, self.node_xy[nodes]))
             if {"seqv", "eptoeqv"} & set(self.quantities):
                 vm, eq, jac, xy = self._point_fields(region)
@@ -209,7 +206,7 @@ class Outputs:
             "usum_mm": "maximum over displacement nodes",
             "seqv_pa": "maximum over quadrature points of the energy integral",
             "eptoeqv": "maximum over quadrature points of the energy integral",
-            "seqv_outside_rim_pa": f"as seqv_pa, over points farther than {self.rim_exclusion / meshmod.MM:g} mm "
+            "seqv_outside_rim_pa": f"as seqv_pa, over points farther than {self.rim_exclusion / MM:g} mm "
             "from every cone corner and from where the thread crosses the tissue's end faces",
         }
         return out
@@ -217,7 +214,8 @@ class Outputs:
     def cell_maxima(self) -> dict[str, np.ndarray]:
         """Per local cell (ghosts included), the maximum over its quadrature points of the von Mises
         stress (Pa, key "von_mises_pa") and of the equivalent Hencky strain ("eptoeqv"), indexed by
-        local cell number: for field files and pictures."""
+        local cell number: for field files and pictures.
+        """
         index_map = self.physics.mesh.topology.index_map(self.physics.mesh.topology.dim)
         num = index_map.size_local + index_map.num_ghosts
         fields = {"von_mises_pa": np.zeros(num), "eptoeqv": np.zeros(num)}

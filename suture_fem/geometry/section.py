@@ -19,7 +19,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from suture_fem.errors import SceneError
+from suture_fem.scene.schema import GeometrySection
+from suture_fem.support.errors import SceneError
 
 Point = tuple[float, float]
 #: ("line", (p, q)) or ("arc", (p, centre, q)): one piece of a closed outline.
@@ -66,13 +67,12 @@ class Geometry:
         return [p for c in self.cones for p in c.corners]
 
     @classmethod
-    def from_scene(cls, scene: dict[str, Any]) -> "Geometry":
+    def from_section(cls, g: GeometrySection) -> Geometry:
         """Build the geometry, rejecting dimensions that do not fit (SceneError names the keys)."""
-        g = scene["geometry"]
-        n, h = g["cones"], g["cone_height_mm"]
-        r_t = g["thread_radius_mm"]
-        r_base, r_top = g["cone_base_diameter_mm"] / 2, g["cone_top_diameter_mm"] / 2
-        r_h = g["hypodermis_mm"]
+        n, h = g.cones, g.cone_height_mm
+        r_t = g.thread_radius_mm
+        r_base, r_top = g.cone_base_diameter_mm / 2, g.cone_top_diameter_mm / 2
+        r_h = g.hypodermis_mm
         if n > 0:
             if r_top <= r_t + MIN_GAP_MM:
                 raise SceneError(
@@ -93,26 +93,26 @@ class Geometry:
             raise SceneError(
                 f"scene key geometry.thread_radius_mm = {r_t:g} must be < geometry.hypodermis_mm = {r_h:g}"
             )
-        if n > 1 and g["cone_spacing_mm"] <= h + MIN_GAP_MM:
+        if n > 1 and g.cone_spacing_mm <= h + MIN_GAP_MM:
             raise SceneError(
                 "cones overlap: geometry.cone_spacing_mm (base to base) must be > geometry.cone_height_mm "
-                f"= {h:g} mm, got {g['cone_spacing_mm']:g} mm"
+                f"= {h:g} mm, got {g.cone_spacing_mm:g} mm"
             )
-        span = (n - 1) * g["cone_spacing_mm"] + h if n > 0 else 0.0
-        length = g["margin_far_mm"] + span + g["margin_pull_mm"]
+        span = (n - 1) * g.cone_spacing_mm + h if n > 0 else 0.0
+        length = g.margin_far_mm + span + g.margin_pull_mm
         cones = []
         for i in range(n):
-            z_lo = g["margin_far_mm"] + i * g["cone_spacing_mm"]
+            z_lo = g.margin_far_mm + i * g.cone_spacing_mm
             cones.append(_cone(g, z_lo, r_t, r_base, r_top))
         return cls(
             r_thread=r_t,
             r_hypodermis=r_h,
-            r_dermis=r_h + g["dermis_mm"],
-            r_epidermis=r_h + g["dermis_mm"] + g["epidermis_mm"],
+            r_dermis=r_h + g.dermis_mm,
+            r_epidermis=r_h + g.dermis_mm + g.epidermis_mm,
             length=length,
-            z_end=length + g["thread_free_length_mm"],
+            z_end=length + g.thread_free_length_mm,
             cones=cones,
-            kind=g["cone_kind"],
+            kind=g.cone_kind,
         )
 
     def describe(self) -> dict[str, Any]:
@@ -126,13 +126,13 @@ class Geometry:
         }
 
 
-def _cone(g: dict[str, Any], z_lo: float, r_t: float, r_base: float, r_top: float) -> Cone:
+def _cone(g: GeometrySection, z_lo: float, r_t: float, r_base: float, r_top: float) -> Cone:
     """Outline of one cone with its base at z_lo (apex up); mirrored when the base faces the pull."""
-    h, wall, fillet = g["cone_height_mm"], g["cone_wall_mm"], g["cone_fillet_mm"]
+    h, wall, fillet = g.cone_height_mm, g.cone_wall_mm, g.cone_fillet_mm
     tan_a = (r_base - r_top) / h  # half-angle of the cone
     w = wall * math.sqrt(1.0 + tan_a**2)  # horizontal width of a wall of normal thickness `wall`
     z_b, z_a = z_lo, z_lo + h
-    if g["cone_kind"] == "full":
+    if g.cone_kind == "full":
         pts = [(r_t, z_a), (r_top, z_a), (r_base, z_b), (r_t, z_b)]
         fillet_at = {2}
         corners = [(r_top, z_a), (r_base, z_b)]
@@ -149,7 +149,7 @@ def _cone(g: dict[str, Any], z_lo: float, r_t: float, r_base: float, r_top: floa
         fillet_at = {2, 3}
         corners = [(r_top, z_a), (r_base, z_b), (r_base - w, z_b), (r_cavity_top, z_c)]
     base_z, apex_z = z_b, z_a
-    if g["cone_orientation"] == "base_to_pull":
+    if g.cone_orientation == "base_to_pull":
         base_z, apex_z = z_a, z_b
         mid = z_b + z_a
         pts = [(r, mid - z) for r, z in pts]

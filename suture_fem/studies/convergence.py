@@ -40,7 +40,6 @@ same resolved scene are reused (``--redo`` solves them again).
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import logging
 import math
@@ -49,14 +48,17 @@ import resource
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
-from suture_fem import scene as scenes
-from suture_fem.errors import SceneError
-from suture_fem.io import read_json, write_json, write_text
-from suture_fem.parallel import on_root
+from suture_fem.pipeline import load_scene
+from suture_fem.scene import Scene
+from suture_fem.scene.schema import RULES
+from suture_fem.support.errors import SceneError
+from suture_fem.support.io import read_json, write_json, write_text
+from suture_fem.support.parallel import on_root
 
 log = logging.getLogger("suture_fem")
 
@@ -97,7 +99,10 @@ class Quantity:
 def _lookup(record: dict[str, Any], dotted: str) -> Any:
     """The value at a dotted path, None where the path does not exist."""
     try:
-        return scenes.get(record, dotted)
+        node: Any = record
+        for part in dotted.split("."):
+            node = node[part]
+        return node
     except (KeyError, TypeError):
         return None
 
@@ -242,10 +247,10 @@ def _run_subprocess(source: str, rung: Rung, folder: Path) -> dict[str, Any] | N
     return read_json(path) if path.exists() else None
 
 
-def _run_inprocess(scene: dict[str, Any], rung: Rung, folder: Path, comm: Any) -> dict[str, Any] | None:
+def _run_inprocess(scene: Scene, rung: Rung, folder: Path, comm: Any) -> dict[str, Any] | None:
     from mpi4py import MPI
 
-    from suture_fem.errors import SutureFemError
+    from suture_fem.support.errors import SutureFemError
 
     t0 = time.perf_counter()
     cpu0 = resource.getrusage(resource.RUSAGE_SELF)
@@ -291,19 +296,20 @@ def singular_points(geometry: Any, fillet_mm: float) -> list[tuple[float, float]
 def singular_free_maxima(outputs: Any, fillet_mm: float) -> dict[str, Any]:
     """The tissue's maximum von Mises stress and equivalent strain (cell maxima over quadrature points)
     over the cells whose midpoint is farther than each of :data:`SINGULAR_FREE_MM` from every
-    singular point (collective). A maximum taken away from every singularity has a limit."""
+    singular point (collective). A maximum taken away from every singularity has a limit.
+    """
     import dolfinx.mesh
     import numpy as np
-    from mpi4py import MPI
 
-    from suture_fem import mesh as meshmod
+    from suture_fem.geometry import mesh as meshmod
+    from suture_fem.geometry import regions
 
     physics = outputs.physics
     mesh, comm = physics.mesh, physics.comm
     points = np.array(singular_points(physics.tagged.geometry, fillet_mm), dtype=float).reshape(-1, 2)
-    cells = meshmod.region_cells(physics.tagged, meshmod.TISSUE)
+    cells = meshmod.region_cells(physics.tagged, regions.TISSUE)
     cells = cells[cells < mesh.topology.index_map(mesh.topology.dim).size_local]
-    mid = dolfinx.mesh.compute_midpoints(mesh, mesh.topology.dim, cells)[:, :2] / meshmod.MM
+    mid = dolfinx.mesh.compute_midpoints(mesh, mesh.topology.dim, cells)[:, :2] / regions.MM
     dist = np.min(np.linalg.norm(mid[:, None, :] - points[None, :, :], axis=2), axis=1) if len(cells) else mid[:, 0]
     fields = outputs.cell_maxima()
     out: dict[str, Any] = {"singular_points_mm": points.tolist()}
@@ -319,13 +325,14 @@ def singular_free_maxima(outputs: Any, fillet_mm: float) -> dict[str, Any]:
     return out
 
 
-def solve_rung(scene: dict[str, Any], folder: Path | None, comm: Any) -> dict[str, Any]:
+def solve_rung(scene: Scene, folder: Path | None, comm: Any) -> dict[str, Any]:
     """``run_scene`` plus, at every reported force, the singularity-free maxima under ``ledger``;
-    results.json is rewritten with them (rank 0)."""
-    from suture_fem.run import run_scene
+    results.json is rewritten with them (rank 0).
+    """
+    from suture_fem.pipeline import run_scene
 
     extra: dict[float, dict[str, Any]] = {}
-    fillet = scene["geometry"]["cone_fillet_mm"]
+    fillet = scene.geometry.cone_fillet_mm
 
     def on_report(force_n: float, outputs: Any) -> None:
         if {"seqv", "eptoeqv"} <= set(getattr(outputs, "quantities", ("seqv", "eptoeqv"))):
@@ -356,7 +363,7 @@ class Ladder:
     def level_overrides(self, level: int) -> list[str]:
         if self.refine == "all":
             return [f"mesh.refinement={level}"]
-        base = scenes.load_scene(self.source, self.overrides)["mesh"]["size_rim_mm"]
+        base = load_scene(self.source, self.overrides).mesh.size_rim_mm
         return [f"mesh.size_rim_mm={base / REFINEMENT_RATIO**level!r}"]
 
     def rungs(self) -> list[tuple[Rung, dict[str, Any]]]:
@@ -374,7 +381,7 @@ class Ladder:
                     name = f"p{degree}_{level}{refinement}" + (f"_{formulation}" if formulation else "")
                     rung = Rung(name, degree, refinement, formulation, [*self.overrides, *extra], level)
                     try:
-                        scene = scenes.load_scene(self.source, rung.overrides)
+                        scene = load_scene(self.source, rung.overrides)
                     except SceneError as exc:
                         log.info("convergence: rung %s skipped: %s", rung.label, exc)
                         continue
@@ -396,7 +403,7 @@ def solve_ladder(ladder: Ladder, out: Path, comm: Any, inprocess: bool, redo: bo
         record = folder / "rung.json"
         if (report_only or not redo) and record.exists():
             old = read_json(record)
-            same = old.get("scene") == json.loads(json.dumps(scene))
+            same = old.get("scene") == json.loads(json.dumps(scene.as_dict()))
             if report_only or (old.get("status") == "converged" and same and old.get("version") == RUNG_VERSION):
                 kept = Rung(**{k: v for k, v in old.items() if k in Rung.__dataclass_fields__})
                 if (folder / "results.json").exists():
@@ -425,7 +432,7 @@ def solve_ladder(ladder: Ladder, out: Path, comm: Any, inprocess: bool, redo: bo
         log.info("convergence: %s %s in %.1f s, %s dofs, %s MB", rung.label, rung.status,
                  rung.wall_time_s or float("nan"), rung.dofs, f"{rung.peak_memory_mb:.0f}" if rung.peak_memory_mb else "?")
         if comm.rank == 0:
-            write_json(record, {**asdict(rung), "scene": scene})
+            write_json(record, {**asdict(rung), "scene": scene.as_dict()})
         done.append(rung)
     return done
 
@@ -697,7 +704,8 @@ def plot(path: Path, title: str, rungs: list[Rung], analysis: dict[str, Any], ti
 
 def write_ledger(out: Path, title: str, ladder: Ladder, rungs: list[Rung], analysis: dict[str, Any]) -> dict[str, Any]:
     """Write ledger.json, ledger.md and ledger.png into ``out`` (call on one rank)."""
-    from suture_fem import __version__, compat
+    from suture_fem import __version__
+    from suture_fem.support import compat
 
     record = {
         "title": title,
@@ -720,22 +728,21 @@ def write_ledger(out: Path, title: str, ladder: Ladder, rungs: list[Rung], analy
 # ---------------------------------------------------------------------------- run --error-estimate
 
 
-def coarser_scene(scene: dict[str, Any]) -> dict[str, Any]:
+def coarser_scene(scene: Scene) -> Scene:
     """The same scene one refinement coarser (every element size doubled at refinement 0)."""
-    coarse = copy.deepcopy(scene)
-    mesh = coarse["mesh"]
-    if mesh["refinement"] > 0:
-        mesh["refinement"] -= 1
+    mesh = scene.mesh
+    if mesh.refinement > 0:
+        values: dict[str, Any] = {"mesh.refinement": mesh.refinement - 1}
     else:
-        for key in ("size_suture_mm", "size_rim_mm", "size_far_mm"):
-            mesh[key] *= REFINEMENT_RATIO
-    coarse["output"]["fields"] = False
-    return coarse
+        values = {f"mesh.{key}": getattr(mesh, key) * REFINEMENT_RATIO
+                  for key in ("size_suture_mm", "size_rim_mm", "size_far_mm")}
+    return scene.with_values({**values, "output.fields": False})
 
 
 def sharp_corners(results: dict[str, Any]) -> list[tuple[float, float]]:
     """Cone corners (mm) that are sharp in this scene: all of them, except the base rim corners when
-    ``geometry.cone_fillet_mm`` > 0 rounds them (the corners at a cone's base height)."""
+    ``geometry.cone_fillet_mm`` > 0 rounds them (the corners at a cone's base height).
+    """
     geometry = results.get("geometry", {})
     corners = [tuple(c) for c in geometry.get("corners_mm", [])]
     if results.get("scene", {}).get("geometry", {}).get("cone_fillet_mm", 0.0) > 0:
@@ -744,7 +751,7 @@ def sharp_corners(results: dict[str, Any]) -> list[tuple[float, float]]:
     return corners
 
 
-def attach_error_estimate(scene: dict[str, Any], results: dict[str, Any], comm: Any, out: Path | None = None,
+def attach_error_estimate(scene: Scene, results: dict[str, Any], comm: Any, out: Path | None = None,
                           order: float = 1.0) -> dict[str, Any]:
     """Solve the scene one refinement coarser and add ``error_estimate`` to ``results`` (returned);
     with ``out``, rewrite ``out/results.json`` with it (rank 0, atomically).
@@ -752,18 +759,18 @@ def attach_error_estimate(scene: dict[str, Any], results: dict[str, Any], comm: 
     For each quantity at each reported force: value +- |Q_h - Q_2h| / (2^p - 1) with the assumed
     order p. The raw maximum stress at a sharp rim has no limit; its entry says so instead.
     """
-    from suture_fem.run import run_scene
+    from suture_fem.pipeline import run_scene
 
     coarse_scene = coarser_scene(scene)
     log.info("error estimate: solving the scene once more, one refinement coarser")
     coarse = run_scene(coarse_scene, None, comm)
     corners = sharp_corners(results)
-    exclusion = scene["output"]["rim_exclusion_mm"]
+    exclusion = scene.output.rim_exclusion_mm
     estimate: dict[str, Any] = {
         "method": (f"Richardson with an assumed order p = {order:g}: |Q_h - Q_2h| / (2^p - 1), Q_2h from a second "
                    "solve with every element size doubled"),
-        "coarse_mesh": {"refinement": coarse_scene["mesh"]["refinement"],
-                        "sizes_mm": {k: coarse_scene["mesh"][k] for k in ("size_suture_mm", "size_rim_mm", "size_far_mm")},
+        "coarse_mesh": {"refinement": coarse_scene.mesh.refinement,
+                        "sizes_mm": {k: getattr(coarse_scene.mesh, k) for k in ("size_suture_mm", "size_rim_mm", "size_far_mm")},
                         "dofs": coarse.get("dofs"), "wall_time_s": coarse.get("wall_time_s")},
         "at_forces": [],
     }
@@ -841,21 +848,21 @@ def register(subparsers: Any, scene_args: Any) -> None:
 
 
 def _rung_main(args: argparse.Namespace, comm: Any) -> int:
-    solve_rung(scenes.load_scene(args.scene, args.overrides), Path(args.out), comm)
+    solve_rung(load_scene(args.scene, args.overrides), Path(args.out), comm)
     return 0
 
 
 def main(args: argparse.Namespace, comm: Any) -> int:
-    base = scenes.load_scene(args.scene, args.overrides)  # bad input stops here, before any solve
+    base = load_scene(args.scene, args.overrides)  # bad input stops here, before any solve
     degrees = _int_list(args.degrees)
     refinements = _int_list(args.refinements)
     for d in degrees:
-        scenes.RULES["mesh.degree"].check("mesh.degree", d)
+        RULES["mesh.degree"].check("mesh.degree", d)
     for k in refinements:
-        scenes.RULES["mesh.refinement"].check("mesh.refinement", k)
+        RULES["mesh.refinement"].check("mesh.refinement", k)
     formulations: list[str | None] = [None]
     if args.formulations:
-        rule = scenes.RULES.get(FORMULATION_KEY)
+        rule = RULES.get(FORMULATION_KEY)
         if rule is None:
             raise SceneError(f"--formulations: this version has no scene key {FORMULATION_KEY}")
         formulations = [rule.check(FORMULATION_KEY, f.strip()) for f in args.formulations.split(",")]

@@ -63,7 +63,7 @@ def mixed_space(mesh: Any, degree_u: int, degree_p: int) -> Any:
 
 def function_vector(u: Any) -> Any:
     """The PETSc vector behind a Function."""
-    return u.vector if hasattr(u, "vector") and not callable(getattr(u, "vector")) else u.x.petsc_vec
+    return u.vector if hasattr(u, "vector") and not callable(u.vector) else u.x.petsc_vec
 
 
 def gmsh_model_to_mesh(model: Any, comm: Any, rank: int, gdim: int) -> tuple[Any, Any, Any]:

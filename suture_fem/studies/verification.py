@@ -61,8 +61,9 @@ incompressible profile is therefore approached as 1/d grows; the comparison is m
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import dolfinx
 import dolfinx.fem
@@ -73,11 +74,12 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from suture_fem import compat, kinematics
-from suture_fem.effects import Effects, FormContext, Terms, elastic_terms
-from suture_fem.kinematics import THETA, R, Z
-from suture_fem.materials import Gent, Material, Yeoh, first_piola
-from suture_fem.physics import REGION_OF_TAG, quadrature_degree
+from suture_fem.physics import kinematics
+from suture_fem.physics.effects import Effects, FormContext, Terms, elastic_terms
+from suture_fem.physics.kinematics import THETA, R, Z
+from suture_fem.physics.materials import Gent, Material, Yeoh, first_piola
+from suture_fem.physics.problem import REGION_OF_TAG, quadrature_degree
+from suture_fem.support import compat
 
 #: An exact displacement written once for both UFL and numpy: (x, m) -> [u_r, u_z], with x = (r, z)
 #: and m the module providing sin, cos, exp (``ufl`` or ``numpy``).
@@ -295,7 +297,7 @@ def solve(problem: Problem, step_tol: float = 1e-11, max_iterations: int = 30) -
 
 
 def body_force(material: Material, exact: ExactField, x: Any) -> Any:
-    """b = -Div P(F(u*)) in cylindrical coordinates (see the module docstring), as a UFL vector."""
+    """B = -Div P(F(u*)) in cylindrical coordinates (see the module docstring), as a UFL vector."""
     u_star = ufl.as_vector(exact(x, ufl))
     P = first_piola(material, kinematics.deformation_gradient(u_star, x))
 
@@ -385,7 +387,7 @@ def observed_rates(h: Sequence[float], err: Sequence[float]) -> list[float]:
 
 
 def shear_stress(material: Material, gamma: np.ndarray | float) -> np.ndarray:
-    """tau = 2 W'(3 + gamma^2) gamma on the isochoric simple-shear state (Pa)."""
+    """Tau = 2 W'(3 + gamma^2) gamma on the isochoric simple-shear state (Pa)."""
     gamma = np.asarray(gamma, dtype=float)
     g2 = gamma * gamma
     if isinstance(material, Yeoh):
@@ -499,7 +501,7 @@ class TubeResult:
     newton_iterations: int
 
     def axial_error(self, u_z: np.ndarray | None = None) -> float:
-        """max |u_z - w(R)| over every node, relative to the core displacement (collective).
+        """Max |u_z - w(R)| over every node, relative to the core displacement (collective).
 
         ``u_z`` replaces the computed field (e.g. by one extrapolated in the bulk modulus).
         """
@@ -508,7 +510,7 @@ class TubeResult:
         return self.comm.allreduce(local, op=MPI.MAX) / self.core_displacement
 
     def radial_displacement(self) -> float:
-        """max |u_r| over every node, relative to the core displacement (0 in the exact solution)."""
+        """Max |u_r| over every node, relative to the core displacement (0 in the exact solution)."""
         return self.comm.allreduce(float(np.max(np.abs(self.u_r), initial=0.0)), op=MPI.MAX) / self.core_displacement
 
     def profile(self, z: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -560,7 +562,8 @@ def tube_solve(comm: Any, exact: TubeShear, tags: Sequence[int], degree: int, ce
 
 def _tube_gradient_error(problem: Problem, exact: TubeShear, tags: Sequence[int], cell_tags: Any) -> float:
     """Relative 2 pi r-weighted L2 error of the displacement gradient (hoop term included) against the
-    exact grad u = -gamma(R) e_z (x) e_r, with gamma in closed form (:func:`shear_strain_ufl`)."""
+    exact grad u = -gamma(R) e_z (x) e_r, with gamma in closed form (:func:`shear_strain_ufl`).
+    """
     x, u = problem.x, problem.u
     weight = kinematics.volume_weight(x)
     dx = ufl.Measure("dx", domain=problem.mesh, subdomain_data=cell_tags,

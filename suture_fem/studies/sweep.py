@@ -58,16 +58,18 @@ import time
 import tomllib
 import traceback
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from suture_fem import scene as scenes
-from suture_fem.errors import SceneError, SolveStopped, SutureFemError
-from suture_fem.io import read_json, write_json, write_text
-from suture_fem.parallel import on_root, wait
+from suture_fem.pipeline import load_scene
+from suture_fem.scene import Scene
+from suture_fem.scene.load import read_scene_source
+from suture_fem.support.errors import SceneError, SolveStopped, SutureFemError
+from suture_fem.support.io import read_json, write_json, write_text
+from suture_fem.support.parallel import on_root, wait
 
 log = logging.getLogger("suture_fem.sweep")
 
@@ -109,7 +111,7 @@ class Case:
     index: int
     varied: dict[str, Any]
     overrides: tuple[str, ...]
-    scene: dict[str, Any] | None
+    scene: Scene | None
     error: str | None
     name: str
 
@@ -194,7 +196,7 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
     common += list(extra or [])
     out_dir = Path(out) if out is not None else Path(raw.get("out") or f"results/{path.stem}")
     try:
-        base_scene, _ = scenes.read_scene_source(base)
+        base_scene, _ = read_scene_source(base)
     except SceneError as exc:
         raise SweepError(f"sweep file {path}: key base: {exc}") from None
     cases = [_case(i, base, base_scene, common, v) for i, v in enumerate(variations)]
@@ -204,10 +206,11 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
 
 def _case(index: int, base: str, base_scene: dict[str, Any], common: list[str], varied: dict[str, Any]) -> Case:
     """One scene; its folder name hashes what the user wrote (the base scene's content and the
-    overrides), so it survives a new suture_fem version that adds keys with defaults."""
+    overrides), so it survives a new suture_fem version that adds keys with defaults.
+    """
     overrides = tuple(common + [f"{k}={toml_value(v)}" for k, v in varied.items()])
     try:
-        scene, error = scenes.load_scene(base, list(overrides)), None
+        scene, error = load_scene(base, list(overrides)), None
     except SceneError as exc:
         scene, error = None, str(exc)
     digest = _short_hash({"base": base_scene, "overrides": overrides})
@@ -273,7 +276,7 @@ class Outcome:
 
 
 def _solve(case: Case, staging: Path, group: Any) -> Outcome:
-    from suture_fem.run import run_scene  # imported on every rank by solve_sweep already
+    from suture_fem.pipeline import run_scene  # imported on every rank by solve_sweep already
 
     if case.scene is None:
         return Outcome("invalid", SceneError.exit_code, case.error or "")
@@ -318,7 +321,7 @@ def _case_status(sweep: Sweep, case: Case, outcome: Outcome, previous: dict[str,
         "ranks": group.size,
         "group": group_index,
         "wall_time_s": round(seconds, 3),
-        "finished_at": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "finished_at": datetime.now(UTC).isoformat(timespec="seconds"),
         "host": platform.node(),
         "solve_count": (previous or {}).get("solve_count", 0) + int(case.scene is not None),
     }
@@ -373,7 +376,7 @@ def solve_sweep(sweep: Sweep, world: Any, ranks_per_scene: int, redo: str | None
         raise SweepError(f"--ranks-per-scene {k}: expected a divisor of the number of MPI ranks ({world.size})")
     # Importing dolfinx initialises PETSc, which is collective on the world: every rank does it now,
     # also those of a group that will get no scene to solve.
-    import suture_fem.run  # noqa: F401
+    import suture_fem.pipeline  # noqa: F401
     t_start = time.perf_counter()
     on_root(world, f"creating {sweep.out}", sweep.out.mkdir, parents=True, exist_ok=True)
     done = world.bcast(finished_scenes(sweep.out) if world.rank == 0 else None, root=0)
@@ -421,7 +424,7 @@ def solve_sweep(sweep: Sweep, world: Any, ranks_per_scene: int, redo: str | None
         "groups": n_groups,
         "schedule": schedule,
         "wall_time_s": round(time.perf_counter() - t_start, 3),
-        "finished_at": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "finished_at": datetime.now(UTC).isoformat(timespec="seconds"),
     }
 
 

@@ -17,35 +17,34 @@ stopped for a numerical reason.
 from __future__ import annotations
 
 import argparse
-import copy
 from pathlib import Path
 from typing import Any
 
-from suture_fem.errors import SceneError, SolveStopped
-from suture_fem.io import write_json
+from suture_fem.scene import Scene
+from suture_fem.support.errors import SceneError, SolveStopped
+from suture_fem.support.io import write_json
 
 PHYSICAL = ("gent_limit", "inverted_element")
 
 
-def search_scene(scene: dict[str, Any], up_to_n: float, tol_n: float) -> dict[str, Any]:
+def search_scene(scene: Scene, up_to_n: float, tol_n: float) -> Scene:
     """The scene set up for the search: ramp to up_to_n with a minimum step that brackets to tol_n."""
     if not 0 < tol_n < up_to_n:
         raise SceneError(f"maxload: --tol = {tol_n:g} N must be > 0 and < --up-to = {up_to_n:g} N")
-    s = copy.deepcopy(scene)
-    s["loading"]["force_n"] = up_to_n
-    s["loading"]["report_forces_n"] = []
-    o = s["solver"]
-    o["min_step"] = min(tol_n / (2.0 * up_to_n), o["initial_step"])
-    return s
+    return scene.with_values({
+        "loading.force_n": up_to_n,
+        "loading.report_forces_n": [],
+        "solver.min_step": min(tol_n / (2.0 * up_to_n), scene.solver.initial_step),
+    })
 
 
-def max_load(scene: dict[str, Any], comm: Any, up_to_n: float, tol_n: float, out: Path | None) -> dict[str, Any]:
+def max_load(scene: Scene, comm: Any, up_to_n: float, tol_n: float, out: Path | None) -> dict[str, Any]:
     """Ramp toward up_to_n and return the bracket record (also written to out/maxload.json)."""
-    from suture_fem.parallel import on_root
-    from suture_fem.run import run_scene
+    from suture_fem.pipeline import run_scene
+    from suture_fem.support.parallel import on_root
 
     searched = search_scene(scene, up_to_n, tol_n)
-    record: dict[str, Any] = {"up_to_n": up_to_n, "tolerance_n": tol_n, "min_step": searched["solver"]["min_step"]}
+    record: dict[str, Any] = {"up_to_n": up_to_n, "tolerance_n": tol_n, "min_step": searched.solver.min_step}
     try:
         results = run_scene(searched, out, comm)
         record.update({
@@ -70,10 +69,10 @@ def max_load(scene: dict[str, Any], comm: Any, up_to_n: float, tol_n: float, out
 
 
 def _handler(args: argparse.Namespace, comm: Any) -> int:
-    from suture_fem import scene as scenes
+    from suture_fem.pipeline import load_scene
 
-    scene = scenes.load_scene(args.scene, list(args.overrides))
-    up_to = args.up_to if args.up_to is not None else 10.0 * scene["loading"]["force_n"]
+    scene = load_scene(args.scene, list(args.overrides))
+    up_to = args.up_to if args.up_to is not None else 10.0 * scene.loading.force_n
     name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
     out = Path(args.out or f"results/{name}-maxload")
     rec = max_load(scene, comm, up_to, args.tol, out)

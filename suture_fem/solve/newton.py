@@ -42,18 +42,22 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import dolfinx.fem
 import dolfinx.fem.petsc
 import numpy as np
 from petsc4py import PETSc
 
-from suture_fem import compat
-from suture_fem import mesh as meshmod
-from suture_fem.errors import SolveStopped
-from suture_fem.physics import FREE, REGION_OF_TAG, RIGID, Physics, quadrature_degree
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry import regions
+from suture_fem.physics.problem import FREE, REGION_OF_TAG, RIGID, Physics, quadrature_degree
+from suture_fem.scene.model import Scene
+from suture_fem.scene.schema import SolverSection
+from suture_fem.support import compat
+from suture_fem.support.errors import SolveStopped
 
 log = logging.getLogger("suture_fem")
 
@@ -122,7 +126,7 @@ class DomainGuard:
         if worst is not None:
             bad, region, name, value, (cell, ip) = worst
             xy = compat.eval_expression(self._x, self.physics.mesh, np.array([cell], dtype=np.int32))
-            xy = xy.reshape(-1, 2)[ip] / meshmod.MM
+            xy = xy.reshape(-1, 2)[ip] / regions.MM
             local = {"region": region, "quantity": name, "value": value, "badness": bad,
                      "r_mm": float(xy[0]), "z_mm": float(xy[1])}
         found = [v for v in self.physics.comm.allgather(local) if v is not None]
@@ -197,7 +201,7 @@ class Reduction:
         return self.T.createVecRight()
 
     def restrict(self, u_vec: Any, x: Any) -> None:
-        """x from a state u that satisfies the constraints (the mean over each column's dofs)."""
+        """X from a state u that satisfies the constraints (the mean over each column's dofs)."""
         self.T.multTranspose(u_vec, x)
         x.pointwiseDivide(x, self.counts)
 
@@ -220,7 +224,7 @@ class Reduction:
 class NewtonSolver:
     """SNES on T^T R(T x) and T^T A T, with the domain guard in the residual."""
 
-    def __init__(self, physics: Physics, solver_options: dict[str, Any], timings: Timings):
+    def __init__(self, physics: Physics, solver_options: SolverSection, timings: Timings):
         self.physics = physics
         self.timings = timings
         t0 = time.perf_counter()
@@ -241,8 +245,8 @@ class NewtonSolver:
         self.outside_domain = 0
         self.last_violation: dict[str, Any] | None = None
         self.options = solver_options
-        self.linear_solver = solver_options["linear_solver"]
-        self.line_search = str(solver_options.get("petsc_options", {}).get("snes_linesearch_type", "bt"))
+        self.linear_solver = solver_options.linear_solver
+        self.line_search = str(solver_options.petsc_options.get("snes_linesearch_type", "bt"))
         self.snes = PETSc.SNES().create(physics.comm)
         self.prefix = f"suture_{id(self)}_"
         self._configure()
@@ -253,9 +257,9 @@ class NewtonSolver:
         base = {
             "snes_type": "newtonls",
             "snes_linesearch_type": self.line_search,
-            "snes_max_it": o["max_iterations"],
-            "snes_rtol": o["rtol"],
-            "snes_atol": o["atol"],
+            "snes_max_it": o.max_iterations,
+            "snes_rtol": o.rtol,
+            "snes_atol": o.atol,
             "snes_stol": 1e-14,
             "snes_max_funcs": 100000,
             "ksp_type": "preonly",
@@ -264,7 +268,7 @@ class NewtonSolver:
         }
         if self.linear_solver == "mumps":
             base["mat_mumps_icntl_14"] = 200  # extra workspace: stiff suture + soft tissue fill-in
-        base.update({str(k): v for k, v in o.get("petsc_options", {}).items()})
+        base.update({str(k): v for k, v in o.petsc_options.items()})
         for key, value in base.items():
             opts[self.prefix + key] = value
         self.snes.setOptionsPrefix(self.prefix)
@@ -328,10 +332,10 @@ class NewtonSolver:
         self.timings.assembly += time.perf_counter() - t0
         if snes.getIterationNumber() == 0:  # the state this solve starts from: set its round-off floor
             self.floor = self.round_off_floor(x)
-            snes.setTolerances(atol=max(self.options["atol"], self.floor))
+            snes.setTolerances(atol=max(self.options.atol, self.floor))
 
     def round_off_floor(self, x: Any) -> float:
-        """eps * ||A diag|x| ||_F: how much rounding each unknown by one ulp changes the residual (N).
+        """Eps * ||A diag|x| ||_F: how much rounding each unknown by one ulp changes the residual (N).
 
         A is the Jacobian last assembled, at x. :meth:`_jacobian` calls this with the first Jacobian of
         each solve, at the state the solve starts from (never at a later iterate, which may be far
@@ -464,11 +468,11 @@ class Path:
 class LoadRamp(Path):
     """Quasi-static: s is the fraction of ``loading.force_n``."""
 
-    def __init__(self, physics: Physics, scene: dict[str, Any]):
-        o, f_max = scene["solver"], scene["loading"]["force_n"]
+    def __init__(self, physics: Physics, scene: Scene):
+        o, f_max = scene.solver, scene.loading.force_n
         self.f_max = f_max
-        targets = sorted(set(f / f_max for f in scene["loading"]["report_forces_n"]) | {1.0})
-        super().__init__(physics, targets, o["initial_step"], o["min_step"], o["max_step"], o["grow"])
+        targets = sorted(set(f / f_max for f in scene.loading.report_forces_n) | {1.0})
+        super().__init__(physics, targets, o.initial_step, o.min_step, o.max_step, o.grow)
 
     def force(self, s: float) -> float:
         return s * self.f_max
@@ -480,9 +484,9 @@ class GravityPreload(Path):
     label = "gravity"
     reports = False
 
-    def __init__(self, physics: Physics, scene: dict[str, Any]):
-        o = scene["solver"]
-        super().__init__(physics, [1.0], 1.0, o["min_step"], 1.0, o["grow"])
+    def __init__(self, physics: Physics, scene: Scene):
+        o = scene.solver
+        super().__init__(physics, [1.0], 1.0, o.min_step, 1.0, o.grow)
 
     def force(self, s: float) -> float:
         return 0.0
@@ -503,14 +507,14 @@ class TimeHistory(Path):
 
     label = "time"
 
-    def __init__(self, physics: Physics, scene: dict[str, Any]):
-        load, o = scene["loading"], scene["solver"]
-        self.f_max, self.ramp_s = load["force_n"], load["ramp_s"]
-        dt = scene["effects"]["time_step_s"]
-        targets = {f / self.f_max * self.ramp_s for f in load["report_forces_n"]} | {self.ramp_s}
-        if load["hold_s"] > 0:
-            targets.add(self.ramp_s + load["hold_s"])
-        super().__init__(physics, sorted(targets), dt, o["min_step"] * self.ramp_s, dt, o["grow"])
+    def __init__(self, physics: Physics, scene: Scene):
+        load, o = scene.loading, scene.solver
+        self.f_max, self.ramp_s = load.force_n, load.ramp_s
+        dt = scene.effects.time_step_s
+        targets = {f / self.f_max * self.ramp_s for f in load.report_forces_n} | {self.ramp_s}
+        if load.hold_s > 0:
+            targets.add(self.ramp_s + load.hold_s)
+        super().__init__(physics, sorted(targets), dt, o.min_step * self.ramp_s, dt, o.grow)
         self.dynamics = physics.dynamics
 
     def force(self, t: float) -> float:
@@ -538,7 +542,7 @@ class TimeHistory(Path):
 
 def ramp(
     physics: Physics,
-    scene: dict[str, Any],
+    scene: Scene,
     on_converged: Callable[..., None],
     timings: Timings | None = None,
 ) -> RampResult:
@@ -550,10 +554,10 @@ def ramp(
     Raises SolveStopped (with every converged step already handed to on_converged) when it cannot go on.
     """
     result = RampResult(timings=timings or Timings())
-    newton = NewtonSolver(physics, scene["solver"], result.timings)
+    newton = NewtonSolver(physics, scene.solver, result.timings)
     result.linear_solver = newton.linear_solver
     result.unknowns = newton.reduction.n_global
-    fraction = scene["solver"]["gent_limit_fraction"]
+    fraction = scene.solver.gent_limit_fraction
     try:
         if physics.gravity_factor is not None:
             _follow(GravityPreload(physics, scene), newton, result, on_converged, fraction)
@@ -593,10 +597,10 @@ def _follow(path: Path, newton: NewtonSolver, result: RampResult, on_converged: 
             ok, its, reason = newton.solve()
             result.newton_iterations += its
             result.domain_rejections += newton.outside_domain
-            if newton.floor > newton.options["atol"]:
+            if newton.floor > newton.options.atol:
                 if result.floor_above_atol == 0:
                     log.info("the residual's round-off floor %.2e N is above solver.atol %.2e N: Newton stops at the "
-                             "floor (recorded as residual_floor_n)", newton.floor, newton.options["atol"])
+                             "floor (recorded as residual_floor_n)", newton.floor, newton.options.atol)
                 result.floor_above_atol += 1
             result.residual_floor_n = max(result.residual_floor_n, newton.floor)
             if ok and fraction < 1.0:
@@ -622,7 +626,7 @@ def _follow(path: Path, newton: NewtonSolver, result: RampResult, on_converged: 
                     t = path.time(s)
                     on_converged(path.force(s), hit) if t is None else on_converged(path.force(s), hit, time_s=t)
                 path.accept(s_old, s)
-                if its <= newton.options["easy_iterations"]:
+                if its <= newton.options.easy_iterations:
                     step = min(step * path.grow, path.max_step)
                 retried = False
                 continue

@@ -7,12 +7,14 @@ multiplies (J - 1)^(2k), so the initial bulk modulus is K0 = 2/d_1.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import ufl
 
-from suture_fem.errors import SceneError
+from suture_fem.scene.model import MaterialSpec
+from suture_fem.support.errors import SceneError
 
 
 def invariants(F: Any) -> tuple[Any, Any]:
@@ -143,9 +145,9 @@ class StVenantKirchhoff:
 Material = Yeoh | Gent | StVenantKirchhoff
 
 
-def from_params(params: dict[str, Any]) -> Material:
+def from_params(spec: MaterialSpec) -> Material:
     """A material from a validated ``materials.<region>`` table."""
-    model = params["model"]
+    model, params = spec.model, spec.params
     if model == "yeoh":
         c = _series(params, "c{}0")
         inv_d = _series(params, "inv_d{}")
@@ -157,7 +159,7 @@ def from_params(params: dict[str, Any]) -> Material:
     raise SceneError(f"unknown material model {model!r}")
 
 
-def _series(params: dict[str, Any], pattern: str) -> tuple[float, ...]:
+def _series(params: Mapping[str, Any], pattern: str) -> tuple[float, ...]:
     """Coefficients 1..6 of a series (missing ones are zero), trailing zeros dropped."""
     values = [float(params.get(pattern.format(i), 0.0)) for i in range(1, 7)]
     while values and values[-1] == 0.0:
@@ -172,7 +174,7 @@ def first_piola(material: Material, F: Any) -> Any:
 
 
 def cauchy(material: Material, F: Any) -> Any:
-    """sigma = J^-1 P F^T."""
+    """Sigma = J^-1 P F^T."""
     Fv = ufl.variable(F)
     P = ufl.diff(material.energy(Fv), Fv)
     return P * Fv.T / ufl.det(Fv)

@@ -14,50 +14,17 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
-import logging
 import sys
 from pathlib import Path
 from typing import Any
 
-from suture_fem.errors import SutureFemError
+from suture_fem.support.errors import SutureFemError
+from suture_fem.support.logging import setup_logging
 
 #: Modules that add a subcommand: each has ``register(subparsers, scene_args)``, which adds its
 #: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
-COMMAND_MODULES: tuple[str, ...] = ("suture_fem.sweep", "suture_fem.convergence", "suture_fem.reproduce",
-                                     "suture_fem.maxload")
-
-
-class _RankFilter(logging.Filter):
-    def __init__(self, rank: int):
-        super().__init__()
-        self.rank = rank
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        return self.rank == 0
-
-
-def setup_logging(comm: Any, verbose: bool = False) -> None:
-    logger = logging.getLogger("suture_fem")
-    logger.handlers.clear()
-    handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("suture-fem: %(message)s"))
-    handler.addFilter(_RankFilter(comm.rank))
-    logger.addHandler(handler)
-    logger.setLevel(logging.DEBUG if verbose else logging.INFO)
-    logger.propagate = False
-    quiet_compiler_logs()
-
-
-def quiet_compiler_logs() -> None:
-    """Keep the C compiler's chatter (setuptools/distutils, run by FFCx's JIT) off the terminal.
-
-    setuptools installs a root handler at import and distutils lowers the root level on every
-    compile, so the root handlers themselves are raised to WARNING.
-    """
-    import setuptools  # noqa: F401  (installs its root handler now, so it can be quietened)
-
-    for handler in logging.getLogger().handlers:
-        handler.setLevel(logging.WARNING)
+COMMAND_MODULES: tuple[str, ...] = ("suture_fem.studies.sweep", "suture_fem.studies.convergence",
+                                     "suture_fem.studies.reproduce", "suture_fem.studies.maxload")
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:
@@ -120,38 +87,39 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _dispatch(args: argparse.Namespace, comm: Any) -> int:
-    from suture_fem import scene as scenes
+    from suture_fem.pipeline import load_scene
+    from suture_fem.scene import builtin_names
 
     if getattr(args, "handler", None) is not None:
         return args.handler(args, comm)
     if args.command == "scenes":
         if comm.rank == 0:
-            print("\n".join(scenes.builtin_names()))
+            print("\n".join(builtin_names()))
         return 0
     overrides = list(args.overrides)
     if args.command == "run" and args.fields:
         overrides.append("output.fields=true")
-    scene = scenes.load_scene(args.scene, overrides)
+    scene = load_scene(args.scene, overrides)
     if args.command == "show":
         if comm.rank == 0:
-            print(json.dumps(scene, indent=2))
+            print(json.dumps(scene.as_dict(), indent=2))
         return 0
     if args.command == "mesh":
-        from suture_fem.mesh import write_msh
+        from suture_fem.geometry.mesh import write_msh
 
         path = Path(args.out or f"meshes/{_scene_name(args.scene)}.msh")
         if comm.rank == 0:
             path.parent.mkdir(parents=True, exist_ok=True)
-            record = write_msh(scene, path)
+            record = write_msh(scene.geometry, scene.mesh, path)
             print(f"suture-fem: wrote {path} ({record['triangles']} triangles) and {path.with_suffix('.json')}")
         return 0
     if args.command == "run":
-        from suture_fem.run import run_scene
+        from suture_fem.pipeline import run_scene
 
         out = Path(args.out or f"results/{_scene_name(args.scene)}")
         results = run_scene(scene, out, comm)
         if args.error_estimate:
-            from suture_fem.convergence import attach_error_estimate
+            from suture_fem.studies.convergence import attach_error_estimate
 
             attach_error_estimate(scene, results, comm, out)
         if comm.rank == 0:

@@ -1,4 +1,7 @@
-"""The pipeline of one scene: scene -> mesh -> physics -> load ramp -> outputs -> results.json.
+"""The pipeline of one scene: scene -> geometry -> mesh -> physics -> load ramp -> outputs -> results.json.
+
+:func:`load_scene` reads and validates a scene completely (keys, types, ranges, then the checks that
+need the geometry and the effects), before any meshing; :func:`run_scene` solves it.
 
 ``results.json`` is rewritten (atomically) after every converged load step, so a run that stops
 later keeps everything it had computed; its ``status`` says "running", "converged" or "stopped".
@@ -8,23 +11,44 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
-from suture_fem import __version__, compat
-from suture_fem import mesh as meshmod
-from suture_fem.errors import SolveStopped
-from suture_fem.io import write_json
-from suture_fem.outputs import FieldWriter, Outputs
-from suture_fem.parallel import on_root
-from suture_fem.physics import build_physics
-from suture_fem.solver import Timings, ramp
+from suture_fem import __version__
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry.section import Geometry
+from suture_fem.outputs.evaluate import FieldWriter, Outputs
+from suture_fem.physics.effects import check_scene
+from suture_fem.physics.problem import build_physics
+from suture_fem.scene import Scene, parse_scene
+from suture_fem.solve.newton import Timings, ramp
+from suture_fem.support import compat
+from suture_fem.support.errors import SolveStopped
+from suture_fem.support.io import write_json
+from suture_fem.support.parallel import on_root
 
 log = logging.getLogger("suture_fem")
 
 
+def load_scene(source: str | Path | None = "paper", overrides: list[str] | None = None) -> Scene:
+    """Defaults, then the scene file or built-in scene, then ``KEY=VALUE`` overrides; fully validated.
+
+    Raises SceneError (one line naming the key and its allowed range) before anything is meshed.
+    """
+    scene = parse_scene(source, overrides)
+    check(scene)
+    return scene
+
+
+def check(scene: Scene) -> None:
+    """The cross-key checks that need the geometry (cones that fit) and the effects (SceneError)."""
+    Geometry.from_section(scene.geometry)
+    check_scene(scene)
+
+
 def run_scene(
-    scene: dict[str, Any],
+    scene: Scene,
     out_dir: str | Path | None,
     comm: Any,
     on_report: Callable[[float, Any], None] | None = None,
@@ -42,11 +66,11 @@ def run_scene(
         on_root(comm, f"creating the output folder {out}", out.mkdir, parents=True, exist_ok=True)
     timings = Timings()
     t0 = time.perf_counter()
-    tagged = meshmod.create_mesh(comm, scene)
+    tagged = meshmod.create_mesh(comm, scene.geometry, scene.mesh)
     meshing = time.perf_counter() - t0
     t0 = time.perf_counter()
     physics = build_physics(tagged, scene)
-    outputs = Outputs(physics, scene, quantities=physics.effects.quantities)
+    outputs = Outputs(physics, scene.output, quantities=physics.effects.quantities)
     timings.form_compilation += time.perf_counter() - t0
     results: dict[str, Any] = {
         "status": "running",
@@ -56,13 +80,13 @@ def run_scene(
         "dofs": physics.num_dofs(),
         "unknowns": physics.num_unknowns(),
         **meshmod.describe(tagged),
-        "applied_force_n": scene["loading"]["force_n"],
+        "applied_force_n": scene.loading.force_n,
         "force_displacement": [[0.0, 0.0]],
         "at_forces": [],
         "effects": physics.effects_record(),
-        "scene": scene,
+        "scene": scene.as_dict(),
     }
-    writer = FieldWriter(physics, outputs, str(out / "fields.xdmf")) if out and scene["output"]["fields"] else None
+    writer = FieldWriter(physics, outputs, str(out / "fields.xdmf")) if out and scene.output.fields else None
 
     def save() -> None:
         results["wall_time_s"] = time.perf_counter() - t_start

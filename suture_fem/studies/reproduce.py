@@ -35,14 +35,16 @@ from __future__ import annotations
 import argparse
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
-from suture_fem import scene as scenes
-from suture_fem.errors import SolveStopped
-from suture_fem.io import read_json, write_json, write_text
-from suture_fem.parallel import on_root
+from suture_fem.pipeline import check, load_scene
+from suture_fem.scene import Scene
+from suture_fem.support.errors import SolveStopped
+from suture_fem.support.io import read_json, write_json, write_text
+from suture_fem.support.parallel import on_root
 
 log = logging.getLogger("suture_fem")
 
@@ -153,21 +155,16 @@ CALIBRATED = Dimension(
 )
 
 
-def with_values(scene: dict[str, Any], values: dict[str, Any]) -> dict[str, Any]:
-    """The scene with dotted keys set to values, validated."""
-    tree: dict[str, Any] = {}
-    for dotted, value in values.items():
-        node = tree
-        *path, leaf = dotted.split(".")
-        for part in path:
-            node = node.setdefault(part, {})
-        node[leaf] = value
-    return scenes.validate(scenes.merge(scene, tree, "reproduce"))
+def with_values(scene: Scene, values: dict[str, Any]) -> Scene:
+    """The scene with dotted keys set to values, validated (the geometry's checks included)."""
+    changed = scene.with_values(values)
+    check(changed)
+    return changed
 
 
-def target_usum_mm(scene: dict[str, Any], comm: Any, values: dict[str, Any] | None = None) -> float:
+def target_usum_mm(scene: Scene, comm: Any, values: dict[str, Any] | None = None) -> float:
     """USUM (mm) of the calibration case (4 cones, 1 N) for the scene with ``values`` set."""
-    from suture_fem.run import run_scene
+    from suture_fem.pipeline import run_scene
 
     case = with_values(scene, {**(values or {}), "geometry.cones": TARGET.cones, "loading.force_n": TARGET.force_n,
                                "loading.report_forces_n": [], "output.fields": False})
@@ -175,7 +172,7 @@ def target_usum_mm(scene: dict[str, Any], comm: Any, values: dict[str, Any] | No
 
 
 def calibrate(
-    scene: dict[str, Any],
+    scene: Scene,
     comm: Any,
     dimension: Dimension = CALIBRATED,
     rel_tol: float = 2e-3,
@@ -233,7 +230,7 @@ def calibrate(
         "usum_mm": best["usum_mm"],
         "rel_error": (best["usum_mm"] - target) / target,
         "evaluations": evaluations,
-        "mesh": dict(scene["mesh"]),
+        "mesh": scene.as_dict()["mesh"],
     }
 
 
@@ -241,7 +238,7 @@ def calibrate(
 # Solving
 
 
-def solve_cone_counts(scene: dict[str, Any], out: Path, comm: Any, fields: bool = True,
+def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True,
                       cones: tuple[int, ...] = CONES) -> dict[str, Any]:
     """One load ramp per cone count of ``cones``; returns {"results": {n: results}, "grids": {(n, F): grid}, ...}.
 
@@ -249,7 +246,7 @@ def solve_cone_counts(scene: dict[str, Any], out: Path, comm: Any, fields: bool 
     ``out/fields/conesN_FN.vtu``. A ramp that stops keeps its converged part.
     """
     from suture_fem import plots
-    from suture_fem.run import run_scene
+    from suture_fem.pipeline import run_scene
 
     results: dict[int, dict[str, Any]] = {}
     grids: dict[tuple[int, float], Any] = {}
@@ -310,7 +307,7 @@ def _rel(ours_value: Any, paper: float) -> Any:
 # Comparison
 
 
-def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], scene: dict[str, Any]) -> dict[str, Any]:
+def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], scene: Scene) -> dict[str, Any]:
     """Every paper value side by side with ours, the trends, and the largest prediction error."""
     rows = []
     for p in PAPER:
@@ -351,7 +348,7 @@ def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], 
             "seqv_pa": "maximum von Mises stress over the tissue's quadrature points (Pa); the overall maximum "
                        "is the thread's axial stress, about 20 MPa per newton, not what the paper reports",
             "eptoeqv": "maximum equivalent Hencky strain over the tissue's quadrature points",
-            "outside_rims": f"the same maximum over points farther than {scene['output']['rim_exclusion_mm']:g} mm "
+            "outside_rims": f"the same maximum over points farther than {scene.output.rim_exclusion_mm:g} mm "
                             "from every cone corner (the peak at a sharp rim is a singularity, this is not; both still "
                             "change with the mesh, see docs/reproduction.md)",
         },
@@ -562,12 +559,13 @@ def figures(solved: dict[str, Any], out: Path) -> list[Path]:
 # The command
 
 
-def reproduce(scene: dict[str, Any], out: Path, comm: Any, calibrate_again: bool = False,
+def reproduce(scene: Scene, out: Path, comm: Any, calibrate_again: bool = False,
               pictures: bool = True, scene_name: str = SCENE, cones: tuple[int, ...] = CONES) -> dict[str, Any]:
     """Calibrate (only if asked), solve every cone count (a subset with ``cones``: the values of the
-    others are then missing from the comparison), compare, draw; returns comparison.json's content."""
+    others are then missing from the comparison), compare, draw; returns comparison.json's content.
+    """
     t_start = time.perf_counter()
-    value = scenes.get(scene, CALIBRATED.keys[0])
+    value = scene.get(CALIBRATED.keys[0])
     if calibrate_again:
         cal = calibrate(scene, comm)
         on_root(comm, "writing calibration.json", write_json, out / "calibration.json", cal)
@@ -594,19 +592,19 @@ def reproduce(scene: dict[str, Any], out: Path, comm: Any, calibrate_again: bool
     if pictures:
         cmp["figures"] = [str(p.name) for p in on_root(comm, "drawing the figures", figures, solved, out) or []]
         cmp["figures"] = comm.bcast(cmp["figures"], root=0)
-    g = scene["geometry"]
+    g = scene.as_dict()["geometry"]
     first = next(iter(results.values()), {})
     info = {
         "scene_name": scene_name,
         "geometry": (f"{g['cone_kind']} cones {g['cone_height_mm']:g} mm high every {g['cone_spacing_mm']:g} mm, "
                      f"thread radius {g['thread_radius_mm']:g} mm, margins {g['margin_far_mm']:g} mm (far) and "
                      f"{g['margin_pull_mm']:g} mm (pulled end)"),
-        "mesh": dict(scene["mesh"]),
+        "mesh": scene.as_dict()["mesh"],
         "dofs": ", ".join(f"{n} cone{'s' if n > 1 else ''}: {r.get('dofs')} dofs" for n, r in results.items()),
         "ranks": comm.size,
         "wall_time_s": time.perf_counter() - t_start,
     }
-    cmp.update({"scene": scene, "run": info, "stopped": solved["stopped"], "suture_fem_version": first.get(
+    cmp.update({"scene": scene.as_dict(), "run": info, "stopped": solved["stopped"], "suture_fem_version": first.get(
         "suture_fem_version"), "dolfinx_version": first.get("dolfinx_version")})
     on_root(comm, "writing comparison.json", write_json, out / "comparison.json", cmp)
     on_root(comm, "writing comparison.md", write_text, out / "comparison.md", comparison_markdown(cmp, info))
@@ -627,7 +625,7 @@ def register(subparsers: Any, scene_args: Any) -> None:
 
 
 def reproduce_command(args: argparse.Namespace, comm: Any) -> int:
-    scene = scenes.load_scene(args.scene, args.overrides)
+    scene = load_scene(args.scene, args.overrides)
     out = Path(args.out)
     cmp = reproduce(scene, out, comm, calibrate_again=args.calibrate, pictures=not args.no_pictures,
                     scene_name=Path(args.scene).stem if str(args.scene).endswith(".toml") else args.scene)

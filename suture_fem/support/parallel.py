@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import logging
 import time
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
-from suture_fem.errors import SutureFemError
+from suture_fem.support.errors import SutureFemError
 
 log = logging.getLogger("suture_fem")
 

@@ -33,9 +33,11 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from suture_fem import compat, kinematics
-from suture_fem import mesh as meshmod
-from suture_fem.effects import (
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry import regions
+from suture_fem.geometry.regions import REGION_OF_TAG
+from suture_fem.physics import kinematics
+from suture_fem.physics.effects import (
     Dynamics,
     Effects,
     FormContext,
@@ -45,16 +47,9 @@ from suture_fem.effects import (
     mark_dofs,
     pull_term,
 )
-from suture_fem.materials import Material, from_params
-
-#: Cell tag -> scene material region.
-REGION_OF_TAG = {
-    meshmod.HYPODERMIS: "hypodermis",
-    meshmod.DERMIS: "dermis",
-    meshmod.EPIDERMIS: "epidermis",
-    meshmod.THREAD: "suture",
-    meshmod.CONE: "suture",
-}
+from suture_fem.physics.materials import Material, from_params
+from suture_fem.scene.model import Scene
+from suture_fem.support import compat
 
 FREE, FIXED, RIGID = 0, 1, 2
 
@@ -175,11 +170,11 @@ class Physics:
         return tuple(t for t, r in REGION_OF_TAG.items() if r == region)
 
 
-def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
+def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     """Forms, boundary conditions and unknowns of a scene on a mesh, with only the called effects."""
     effects = Effects.from_scene(scene)
     mesh = tagged.mesh
-    degree = scene["mesh"]["degree"]
+    degree = scene.mesh.degree
     if effects.mixed:
         W = compat.mixed_space(mesh, degree, degree - 1)
         W_u = W.sub(0)
@@ -196,7 +191,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
     q = quadrature_degree(degree)
     dx = ufl.Measure("dx", domain=mesh, subdomain_data=tagged.cell_tags, metadata={"quadrature_degree": q})
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags, metadata={"quadrature_degree": q})
-    materials = {region: from_params(scene["materials"][region]) for region in sorted(set(REGION_OF_TAG.values()))}
+    materials = {region: from_params(scene.materials.of(region)) for region in sorted(set(REGION_OF_TAG.values()))}
     present = _present_tags(tagged)
     region_tags = {}
     for region in ("hypodermis", "dermis", "epidermis", "suture"):
@@ -219,7 +214,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
     terms = Terms()
     elastic_terms(ctx, effects, terms)
     traction = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
-    pull_term(ctx, traction, meshmod.PULL_FACE, terms)
+    pull_term(ctx, traction, regions.Facet.PULL_FACE, terms)
     gravity_factor = None
     if effects.gravity:
         gravity_factor = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
@@ -239,8 +234,8 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
 
     fdim = mesh.topology.dim - 1
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)
-    outer = meshmod.facets(tagged, meshmod.OUTER)
-    axis = meshmod.facets(tagged, meshmod.AXIS)
+    outer = meshmod.facets(tagged, regions.Facet.OUTER)
+    axis = meshmod.facets(tagged, regions.Facet.AXIS)
     zero = PETSc.ScalarType(0.0)
     bcs = [  # per component, so the same code serves the vector space and the mixed space's subspace
         dolfinx.fem.dirichletbc(zero, dolfinx.fem.locate_dofs_topological(W_u.sub(c), fdim, outer), W_u.sub(c))
@@ -251,7 +246,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
     notes: dict[str, dict[str, Any]] = {}
     if effects.mixed:
         # pressure unknowns that touch no tissue cell have no equation: pin them to 0
-        tissue_cells = meshmod.region_cells(tagged, meshmod.TISSUE)
+        tissue_cells = meshmod.region_cells(tagged, regions.TISSUE)
         in_tissue = mark_dofs(W, tissue_cells, W.sub(1))
         p_all = mark_dofs(W, np.arange(mesh.topology.index_map(2).size_local, dtype=np.int32), W.sub(1))
         pinned = np.flatnonzero(p_all & ~in_tissue).astype(np.int32)
@@ -268,7 +263,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
         # The constraint as boundary conditions (u_r = 0, u_z = d on every suture dof), so everything that
         # reads bcs sees which dofs are constrained; SNES imposes it through Reduction, which updates d.
         rigid_displacement = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
-        suture_cells = meshmod.region_cells(tagged, meshmod.SUTURE)
+        suture_cells = meshmod.region_cells(tagged, regions.SUTURE)
         radial, axial = (np.flatnonzero(mark_dofs(W, suture_cells, W_u.sub(c))).astype(np.int32) for c in (0, 1))
         rigid_bc = dolfinx.fem.dirichletbc(rigid_displacement, axial, W_u.sub(1))
         bcs += [dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), radial, W_u.sub(0)), rigid_bc]
@@ -282,20 +277,20 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
         left_out["suture elasticity"] = ("effects.suture = \"rigid\": the suture's strain energy is not built; "
                                          "its unknowns are replaced by one rigid axial motion")
     if dynamics is not None:
-        e = scene["effects"]
+        e = scene.effects
         notes["inertia"] = {
-            "time_scheme": e["time_scheme"], "scheme": dynamics.scheme.__dict__, "time_step_s": e["time_step_s"],
-            "rayleigh_mass_per_s": e["rayleigh_mass_per_s"], "rayleigh_stiffness_s": e["rayleigh_stiffness_s"],
+            "time_scheme": e.time_scheme, "scheme": dynamics.scheme.__dict__, "time_step_s": e.time_step_s,
+            "rayleigh_mass_per_s": e.rayleigh_mass_per_s, "rayleigh_stiffness_s": e.rayleigh_stiffness_s,
             "densities_kg_m3": dynamics.densities.by_region,
         }
     if effects.gravity:
-        notes["gravity"] = {"g_m_s2": scene["effects"]["gravity_m_s2"], "direction": scene["effects"]["gravity_direction"],
+        notes["gravity"] = {"g_m_s2": scene.effects.gravity_m_s2, "direction": scene.effects.gravity_direction,
                             "weight_n": weight_n(tagged, scene), "applied": "quasi-statically before the pull"}
     if not effects.inertia:
         left_out["inertia"] = "effects.inertia = false: no mass or damping form"
     if not effects.gravity:
         left_out["gravity"] = "effects.gravity = false: no body force"
-    r_t = tagged.geometry.r_thread * meshmod.MM
+    r_t = tagged.geometry.r_thread * regions.MM
     return Physics(
         tagged=tagged,
         degree=degree,
@@ -312,7 +307,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
         jacobian=jacobian,
         bcs=bcs,
         energy=energy,
-        end_displacement=kinematics.axial(u) * weight * ds(meshmod.PULL_FACE),
+        end_displacement=kinematics.axial(u) * weight * ds(regions.Facet.PULL_FACE),
         outer_z_dofs=np.asarray(outer_z, dtype=np.int32),
         pull_area=math.pi * r_t**2,
         dx=dx,
@@ -327,13 +322,13 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> Physics:
     )
 
 
-def weight_n(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> float:
+def weight_n(tagged: meshmod.TaggedMesh, scene: Scene) -> float:
     """Total weight rho g V (N) from the mesh geometry, independently of the weak form.
 
     For a straight-sided triangle int r dA = A r_centroid exactly, so V = sum 2 pi A r_centroid.
     """
     mesh = tagged.mesh
-    e = scene["effects"]
+    e = scene.effects
     n_owned = mesh.topology.index_map(2).size_local
     geom = mesh.geometry.x[:, :2]
     cells = mesh.geometry.dofmap.array.reshape(-1, 3)
@@ -343,13 +338,14 @@ def weight_n(tagged: meshmod.TaggedMesh, scene: dict[str, Any]) -> float:
         ids = ids[ids < n_owned]
         p = geom[cells[ids]]
         area = 0.5 * np.abs(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
-        total += e[f"density_{region}_kg_m3"] * float(np.sum(2 * math.pi * area * p[:, :, 0].mean(axis=1)))
-    return mesh.comm.allreduce(total) * e["gravity_m_s2"]
+        total += e.density(region) * float(np.sum(2 * math.pi * area * p[:, :, 0].mean(axis=1)))
+    return mesh.comm.allreduce(total) * e.gravity_m_s2
 
 
 def _unknowns(W: Any, bcs: list[Any], rigid_bc: Any = None) -> Unknowns:
     """Classify every local dof of W: FIXED by a (zero) boundary condition, RIGID (u_z = d on the rigid
-    suture's ``rigid_bc``) or FREE."""
+    suture's ``rigid_bc``) or FREE.
+    """
     im = W.dofmap.index_map
     bs = W.dofmap.index_map_bs
     kind = np.full((im.size_local + im.num_ghosts) * bs, FREE, dtype=np.int8)

@@ -42,7 +42,8 @@ import logging
 from dataclasses import dataclass, field
 from typing import Any
 
-from suture_fem.errors import SceneError
+from suture_fem.scene.model import Scene
+from suture_fem.support.errors import SceneError
 
 # ufl, dolfinx and petsc4py are imported where the forms are built, so scene validation
 # (check_scene) stays free of them.
@@ -68,15 +69,15 @@ class Effects:
     hold_s: float = 0.0
 
     @classmethod
-    def from_scene(cls, scene: dict[str, Any]) -> "Effects":
-        e = scene["effects"]
+    def from_scene(cls, scene: Scene) -> Effects:
+        e = scene.effects
         return cls(
-            inertia=e["inertia"],
-            suture=e["suture"],
-            incompressibility=e["incompressibility"],
-            gravity=e["gravity"],
-            quantities=tuple(q for q in QUANTITIES if q in scene["output"]["quantities"]),
-            hold_s=scene["loading"]["hold_s"],
+            inertia=e.inertia,
+            suture=e.suture,
+            incompressibility=e.incompressibility,
+            gravity=e.gravity,
+            quantities=tuple(q for q in QUANTITIES if q in scene.output.quantities),
+            hold_s=scene.loading.hold_s,
         )
 
     @property
@@ -124,19 +125,19 @@ class Effects:
         return rec
 
 
-def check_scene(scene: dict[str, Any]) -> None:
+def check_scene(scene: Scene) -> None:
     """Cross-key rules of the effects (run by scene validation, before any meshing)."""
-    e = scene["effects"]
-    if e["incompressibility"] == "mixed" and scene["mesh"]["degree"] < 2:
+    e = scene.effects
+    if e.incompressibility == "mixed" and scene.mesh.degree < 2:
         raise SceneError(
             'scene key effects.incompressibility = "mixed" needs mesh.degree = 2 (Taylor-Hood P2/P1 is the stable '
             "pair; P1/P0 and P1/P1 are not), got mesh.degree = 1"
         )
-    if e["inertia"] and e["time_step_s"] > scene["loading"]["ramp_s"] + scene["loading"]["hold_s"]:
+    if e.inertia and e.time_step_s > scene.loading.ramp_s + scene.loading.hold_s:
         raise SceneError(
-            f"scene key effects.time_step_s = {e['time_step_s']:g} must be <= loading.ramp_s + loading.hold_s"
+            f"scene key effects.time_step_s = {e.time_step_s:g} must be <= loading.ramp_s + loading.hold_s"
         )
-    quantities = scene["output"]["quantities"]
+    quantities = scene.output.quantities
     if not quantities:
         raise SceneError("scene key output.quantities must name at least one of " + ", ".join(QUANTITIES))
 
@@ -177,7 +178,7 @@ class FormContext:
         return d if self.scale == 1.0 else self.scale * d
 
     def F(self, u: Any) -> Any:
-        from suture_fem import kinematics
+        from suture_fem.physics import kinematics
 
         return kinematics.deformation_gradient(u, self.x)
 
@@ -233,7 +234,7 @@ def _pressure_equation(mat: Any, J: Any, p: Any) -> Any:
 
 
 def pull_term(ctx: FormContext, traction: Any, face_tag: int, terms: Terms) -> None:
-    from suture_fem import kinematics
+    from suture_fem.physics import kinematics
 
     terms.potential["pull"] = -traction * kinematics.axial(ctx.u) * ctx.weight * ctx.ds(face_tag)
 
@@ -245,17 +246,17 @@ class Densities:
     by_region: dict[str, float]
 
     @classmethod
-    def from_scene(cls, scene: dict[str, Any]) -> "Densities":
-        e = scene["effects"]
-        return cls({r: e[f"density_{r}_kg_m3"] for r in (*TISSUE, "suture")})
+    def from_scene(cls, scene: Scene) -> Densities:
+        e = scene.effects
+        return cls({r: e.density(r) for r in (*TISSUE, "suture")})
 
 
-def gravity_term(ctx: FormContext, scene: dict[str, Any], factor: Any, terms: Terms) -> None:
+def gravity_term(ctx: FormContext, scene: Scene, factor: Any, terms: Terms) -> None:
     """Weight of every region as an axial body force, scaled by ``factor`` (0 -> 1 in the preload)."""
-    from suture_fem import kinematics
+    from suture_fem.physics import kinematics
 
-    e = scene["effects"]
-    g = e["gravity_m_s2"] * (1.0 if e["gravity_direction"] == "+z" else -1.0)
+    e = scene.effects
+    g = e.gravity_m_s2 * (1.0 if e.gravity_direction == "+z" else -1.0)
     rho = Densities.from_scene(scene).by_region
     work = sum(rho[r] * g * kinematics.axial(ctx.u) * ctx.weight * ctx.over(r) for r in ctx.region_tags)
     terms.potential["gravity"] = -factor * work
@@ -271,11 +272,11 @@ class Scheme:
     beta: float
 
     @classmethod
-    def from_scene(cls, scene: dict[str, Any]) -> "Scheme":
-        e = scene["effects"]
-        if e["time_scheme"] == "newmark":
+    def from_scene(cls, scene: Scene) -> Scheme:
+        e = scene.effects
+        if e.time_scheme == "newmark":
             return cls(0.0, 0.0, 0.5, 0.25)
-        rho = e["spectral_radius"]  # Chung & Hulbert (1993), eq. 25
+        rho = e.spectral_radius  # Chung & Hulbert (1993), eq. 25
         am, af = (2 * rho - 1) / (rho + 1), rho / (rho + 1)
         gamma = 0.5 - am + af
         return cls(am, af, gamma, 0.25 * (1 - am + af) ** 2)
@@ -287,7 +288,7 @@ class Dynamics:
     Holds w_n, v_n, a_n (Functions in the unknown's space) and dt (a Constant set per step).
     """
 
-    def __init__(self, W: Any, scene: dict[str, Any]):
+    def __init__(self, W: Any, scene: Scene):
         import dolfinx.fem
         from petsc4py import PETSc
 
@@ -296,9 +297,9 @@ class Dynamics:
         self.w_n = dolfinx.fem.Function(W, name="w_n")
         self.v_n = dolfinx.fem.Function(W, name="v_n")
         self.a_n = dolfinx.fem.Function(W, name="a_n")
-        self.dt = dolfinx.fem.Constant(mesh, PETSc.ScalarType(scene["effects"]["time_step_s"]))
-        e = scene["effects"]
-        self.alpha_mass, self.beta_stiffness = e["rayleigh_mass_per_s"], e["rayleigh_stiffness_s"]
+        self.dt = dolfinx.fem.Constant(mesh, PETSc.ScalarType(scene.effects.time_step_s))
+        e = scene.effects
+        self.alpha_mass, self.beta_stiffness = e.rayleigh_mass_per_s, e.rayleigh_stiffness_s
         self.densities = Densities.from_scene(scene)
 
     def evaluation_state(self, w: Any) -> Any:
@@ -366,7 +367,7 @@ def mark_dofs(W: Any, cells: Any, sub: Any | None = None) -> Any:
     import dolfinx.fem
     import numpy as np
 
-    from suture_fem import compat
+    from suture_fem.support import compat
 
     space = W if sub is None else sub
     carrier = dolfinx.fem.Function(W)

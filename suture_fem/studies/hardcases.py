@@ -136,16 +136,33 @@ def classify(results: dict[str, Any] | None, exit_code: int | None) -> dict[str,
     return row
 
 
+def _run_inprocess(overrides: tuple[str, ...], out: Path, comm: Any) -> int:
+    """The case in this process (what ``suture-fem run`` does); returns its exit code."""
+    from suture_fem.pipeline import load_scene, run_scene
+    from suture_fem.support.errors import SutureFemError
+
+    try:
+        run_scene(load_scene("paper", list(overrides)), out, comm)
+    except SutureFemError as exc:
+        return exc.exit_code
+    return 0
+
+
 def run_case(name: str, overrides: tuple[str, ...], out: Path, *, inprocess: bool = False,
-             timeout_s: float | None = None) -> dict[str, Any]:
-    """Run one case (``suture-fem run paper --set ...``) and classify it."""
+             timeout_s: float | None = None, comm: Any = None) -> dict[str, Any]:
+    """Run one case (``suture-fem run paper --set ...``) and classify it.
+
+    In process it runs on ``comm`` (default: this process alone); otherwise as a subprocess.
+    """
     out = Path(out)
     args = ["run", "paper", *[a for o in overrides for a in ("--set", o)], "--out", str(out)]
     t0 = time.perf_counter()
     if inprocess:
-        from suture_fem.cli import main
+        if comm is None:
+            from mpi4py import MPI
 
-        code: int | None = main(args)
+            comm = MPI.COMM_SELF
+        code: int | None = _run_inprocess(overrides, out, comm)
     else:
         try:
             code = subprocess.run([sys.executable, "-m", "suture_fem.cli", *args], capture_output=True,

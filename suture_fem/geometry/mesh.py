@@ -1,0 +1,109 @@
+"""Mesh: the gmsh model meshed on rank 0 and distributed as a dolfinx mesh with its tags.
+
+gmsh runs on rank 0 only (OpenCASCADE kernel, :mod:`suture_fem.geometry.gmsh_model`); every rank
+learns its outcome. The gmsh model is in millimetres; the dolfinx mesh is scaled to metres (SI
+throughout the solver).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suture_fem.geometry.gmsh_model import MeshSizes, build_gmsh_model
+from suture_fem.geometry.regions import CELL_TAGS, FACET_TAGS, MM
+from suture_fem.geometry.section import Geometry
+from suture_fem.scene.schema import GeometrySection, MeshSection
+from suture_fem.support import compat
+from suture_fem.support.io import write_json
+from suture_fem.support.parallel import on_root
+
+
+@dataclass
+class TaggedMesh:
+    """A dolfinx mesh (in metres) with its cell and facet tags."""
+
+    mesh: Any
+    cell_tags: Any
+    facet_tags: Any
+    geometry: Geometry
+    sizes: MeshSizes
+
+
+def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: MeshSection) -> TaggedMesh:
+    """Build the mesh of a scene on rank 0 of ``comm`` and distribute it (coordinates in metres)."""
+    geometry = Geometry.from_section(geometry_section)
+    sizes = MeshSizes.from_section(mesh_section)
+    if comm.rank == 0:
+        with compat.gmsh_session() as gmsh:
+            try:
+                on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes)
+                mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
+            finally:
+                gmsh.model.remove()
+    else:
+        on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes)  # rank 0's outcome, on every rank
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
+    mesh.geometry.x[:, :2] *= MM
+    return TaggedMesh(mesh, cell_tags, facet_tags, geometry, sizes)
+
+
+def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path: str | Path) -> dict[str, Any]:
+    """Write a scene's mesh as a gmsh .msh file (mm) with a JSON record of its parameters beside it."""
+    from suture_fem import __version__
+
+    path = Path(path)
+    geometry = Geometry.from_section(geometry_section)
+    sizes = MeshSizes.from_section(mesh_section)
+    with compat.gmsh_session() as gmsh:
+        try:
+            build_gmsh_model(geometry, sizes)
+            tmp = path.with_name(path.name + ".part.msh")
+            gmsh.write(str(tmp))
+            os.replace(tmp, path)
+            nodes = len(gmsh.model.mesh.getNodes()[0])
+            cells = sum(len(t) for t in gmsh.model.mesh.getElements(2)[1])
+        finally:
+            gmsh.model.remove()
+    record = {
+        "suture_fem_version": __version__,
+        "units": "mm",
+        "nodes": nodes,
+        "triangles": int(cells),
+        "cell_tags": CELL_TAGS,
+        "facet_tags": FACET_TAGS,
+        "geometry": geometry.describe(),
+        "sizes_mm": sizes.__dict__,
+        "scene": {"geometry": asdict(geometry_section), "mesh": asdict(mesh_section)},
+    }
+    write_json(path.with_suffix(".json"), record)
+    return record
+
+
+def region_cells(tagged: TaggedMesh, tags: tuple[int, ...] | int) -> np.ndarray:
+    """Local cell indices carrying any of the given cell tags."""
+    tags = (tags,) if isinstance(tags, int) else tags
+    ct = tagged.cell_tags
+    return np.sort(ct.indices[np.isin(ct.values, tags)]).astype(np.int32)
+
+
+def facets(tagged: TaggedMesh, tag: int) -> np.ndarray:
+    """Local facet indices carrying a facet tag."""
+    ft = tagged.facet_tags
+    return ft.indices[ft.values == tag].astype(np.int32)
+
+
+def describe(tagged: TaggedMesh) -> dict[str, Any]:
+    """Global cell count and sizes, JSON-ready."""
+    m = tagged.mesh
+    n_local = m.topology.index_map(2).size_local
+    return {
+        "cells": int(m.comm.allreduce(n_local)),
+        "sizes_mm": tagged.sizes.__dict__,
+        "geometry": tagged.geometry.describe(),
+    }
+

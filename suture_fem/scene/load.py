@@ -1,0 +1,192 @@
+"""Reading scenes: TOML files, built-in scenes and ``--set KEY=VALUE`` overrides, validated.
+
+A scene is a nested mapping of sections (``geometry``, ``mesh``, ``materials``, ``loading``,
+``solver``, ``effects``, ``output``). Every key has a default in ``defaults.toml`` and a rule in
+:mod:`suture_fem.scene.schema`; a scene file lists only what it changes. :func:`parse_scene` merges a
+file (or a built-in scene name) and overrides on the defaults, checks every key's type and range and
+the cross-key rules of the scene alone, and returns the typed :class:`~suture_fem.scene.model.Scene`.
+The checks that need the geometry or the effects run in :func:`suture_fem.pipeline.load_scene`, still
+before any meshing.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import logging
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from suture_fem.geometry.regions import REGIONS
+from suture_fem.scene.model import Scene
+from suture_fem.scene.schema import MODEL_PARAMETERS, RULES, TISSUE_MODELS, Rule
+from suture_fem.support.errors import SceneError
+
+log = logging.getLogger("suture_fem")
+
+
+def defaults() -> dict[str, Any]:
+    """The default scene (a fresh copy)."""
+    text = resources.files("suture_fem.scene").joinpath("defaults.toml").read_text()
+    return tomllib.loads(text)
+
+
+def builtin_names() -> list[str]:
+    """Names of the scenes shipped inside the package."""
+    folder = resources.files("suture_fem.scene").joinpath("builtin")
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def read_scene_source(source: str | Path) -> tuple[dict[str, Any], str]:
+    """Read a scene file or a built-in scene by name; return (raw mapping, description)."""
+    path = Path(source)
+    if path.suffix == ".toml" or path.exists():
+        if not path.is_file():
+            raise SceneError(f"scene file {str(path)!r} does not exist")
+        text, where = path.read_text(), str(path)
+    elif str(source) in builtin_names():
+        text = resources.files("suture_fem.scene").joinpath(f"builtin/{source}.toml").read_text()
+        where = f"built-in scene {source!r}"
+    else:
+        raise SceneError(
+            f"scene {str(source)!r} is neither a TOML file nor a built-in scene ({', '.join(builtin_names())})"
+        )
+    try:
+        return tomllib.loads(text), where
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{where}: not valid TOML: {exc}") from None
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """Parse ``KEY=VALUE``; VALUE is read as a TOML value, else taken as a bare string."""
+    if "=" not in text:
+        raise SceneError(f"--set {text!r}: expected KEY=VALUE, for example geometry.cones=2")
+    key, raw = (s.strip() for s in text.split("=", 1))
+    if not key:
+        raise SceneError(f"--set {text!r}: empty key")
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    return key, value
+
+
+def _flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    flat: dict[str, Any] = {}
+    for key, value in tree.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict) and not (name in RULES and RULES[name].kind == "table"):
+            flat.update(_flatten(value, name + "."))
+        else:
+            flat[name] = value
+    return flat
+
+
+def _set(tree: dict[str, Any], dotted: str, value: Any) -> None:
+    *path, leaf = dotted.split(".")
+    node = tree
+    for part in path:
+        node = node.setdefault(part, {})
+        if not isinstance(node, dict):
+            raise SceneError(f"scene key {dotted}: {part} is not a table")
+    node[leaf] = value
+
+
+def _unknown(key: str, known: list[str]) -> SceneError:
+    close = difflib.get_close_matches(key, known, n=1)
+    hint = f" (did you mean {close[0]}?)" if close else ""
+    return SceneError(f"unknown scene key {key}{hint}")
+
+
+def _material_rule(key: str, scene: dict[str, Any]) -> Rule | None:
+    parts = key.split(".")
+    if len(parts) != 3 or parts[0] != "materials":
+        return None
+    region, name = parts[1], parts[2]
+    if region not in REGIONS:
+        raise SceneError(f"scene key {key}: unknown region {region!r} (one of {', '.join(REGIONS)})")
+    if name == "model":
+        return Rule("str", choices=("svk",) if region == "suture" else TISSUE_MODELS)
+    model = scene["materials"][region].get("model")
+    params = MODEL_PARAMETERS.get(model, {})
+    if name not in params:
+        allowed = ", ".join(["model", *params]) or "model"
+        raise SceneError(f"scene key {key}: not a parameter of the {model!r} model (allowed: {allowed})")
+    return params[name]
+
+
+def merge(base: dict[str, Any], overlay: dict[str, Any], where: str) -> dict[str, Any]:
+    """Return base with overlay's keys set on it (keys checked to exist, values not yet)."""
+    known = list(_flatten(base))
+    merged = copy.deepcopy(base)
+    for key, value in _flatten(overlay).items():
+        if key.startswith("materials."):
+            region = key.split(".")[1] if key.count(".") >= 2 else None
+            if region not in REGIONS:
+                raise SceneError(f"{where}: scene key {key}: unknown region (one of {', '.join(REGIONS)})")
+            # A change of model replaces the region's parameter set.
+            if key.endswith(".model") and value != merged["materials"][region].get("model"):
+                merged["materials"][region] = {}
+        elif key not in known and not key.startswith("solver.petsc_options."):
+            raise _unknown(key, known)
+        _set(merged, key, value)
+    return merged
+
+
+def validate(scene: dict[str, Any]) -> dict[str, Any]:
+    """Check every key's type and range, and the cross-key rules; return the normalised scene."""
+    out = copy.deepcopy(scene)
+    for key, value in _flatten(scene).items():
+        rule = RULES.get(key) or _material_rule(key, scene)
+        if rule is None:
+            raise _unknown(key, list(RULES))
+        _set(out, key, rule.check(key, value))
+    for region in REGIONS:
+        _check_material(region, out["materials"][region])
+    loading, solver = out["loading"], out["solver"]
+    above = [f for f in loading["report_forces_n"] if f > loading["force_n"]]
+    if above:  # e.g. the paper scene (reports at 1, 2, 3 N) run with --set loading.force_n=1.5
+        log.info("report forces above loading.force_n = %g N are not on the ramp and are skipped: %s",
+                 loading["force_n"], ", ".join(f"{f:g} N" for f in above))
+    loading["report_forces_n"] = sorted(set(f for f in loading["report_forces_n"] if f <= loading["force_n"]))
+    if not solver["min_step"] <= solver["initial_step"] <= solver["max_step"]:
+        raise SceneError(
+            "scene keys solver.min_step <= solver.initial_step <= solver.max_step must hold, got "
+            f"{solver['min_step']:g}, {solver['initial_step']:g}, {solver['max_step']:g}"
+        )
+    if solver["easy_iterations"] > solver["max_iterations"]:
+        raise SceneError("scene key solver.easy_iterations must be <= solver.max_iterations")
+    return out
+
+
+def _check_material(region: str, params: dict[str, Any]) -> None:
+    model = params.get("model")
+    if model == "yeoh":
+        if not any(k.startswith("c") for k in params):
+            raise SceneError(f"scene key materials.{region}: a Yeoh model needs at least c10")
+        if params.get("c10", 0.0) <= 0.0:
+            raise SceneError(f"scene key materials.{region}.c10 must be > 0 (initial shear modulus 2*c10)")
+    required = {"gent": ("mu", "jm", "inv_d"), "svk": ("young", "poisson")}.get(model, ())
+    for name in required:
+        if name not in params:
+            raise SceneError(f"scene key materials.{region}.{name} is required by the {model!r} model")
+
+
+def parse_scene(source: str | Path | None = "paper", overrides: list[str] | None = None) -> Scene:
+    """Defaults, then the scene file or built-in scene, then ``KEY=VALUE`` overrides; validated and typed."""
+    scene = defaults()
+    if source is not None:
+        raw, where = read_scene_source(source)
+        scene = merge(scene, raw, where)
+    for text in overrides or []:
+        key, value = parse_override(text)
+        scene = merge(scene, unflatten(key, value), f"--set {text}")
+    return Scene.from_dict(validate(scene))
+
+
+def unflatten(key: str, value: Any) -> dict[str, Any]:
+    tree: dict[str, Any] = {}
+    _set(tree, key, value)
+    return tree

@@ -1,0 +1,258 @@
+"""The scene schema: every key once, with its type, allowed range and unit.
+
+Each section of a scene is a frozen dataclass; each of its fields is one scene key, declared with
+:func:`key` (its :class:`Rule` and unit). Default values and their sources are written beside the
+keys in ``defaults.toml`` (a test checks that the two list the same keys). :data:`RULES` is derived
+from these declarations, so a key's range is stated in exactly one place.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+from suture_fem.support.errors import SceneError
+
+INF = math.inf
+
+
+@dataclass(frozen=True)
+class Rule:
+    """Type and range of one scene key.
+
+    Attributes:
+        kind: "int", "float", "str", "bool", "floats" (list of numbers), "strs" (list of strings) or "table".
+        lo, hi: closed range for numbers (open when ``lo_open``/``hi_open``).
+        choices: allowed strings.
+    """
+
+    kind: str
+    lo: float = -INF
+    hi: float = INF
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple[str, ...] = ()
+
+    def describe(self) -> str:
+        if self.choices:
+            return ("a list of any of " if self.kind == "strs" else "one of ") + ", ".join(f'"{c}"' for c in self.choices)
+        if self.kind in ("int", "float", "floats"):
+            noun = {"int": "an integer", "float": "a finite number", "floats": "a list of finite numbers"}[
+                self.kind
+            ]
+            parts = []
+            if self.lo > -INF:
+                parts.append(f"{'>' if self.lo_open else '>='} {self.lo:g}")
+            if self.hi < INF:
+                parts.append(f"{'<' if self.hi_open else '<='} {self.hi:g}")
+            return noun + (" " + " and ".join(parts) if parts else "")
+        return {"str": "a string", "bool": "true or false", "table": "a table"}[self.kind]
+
+    def check(self, key: str, value: Any) -> Any:
+        """Return the value (ints widened to float where a float is wanted) or raise SceneError."""
+        bad = SceneError(f"scene key {key} = {value!r}: expected {self.describe()}")
+        if self.kind == "bool":
+            if not isinstance(value, bool):
+                raise bad
+            return value
+        if self.kind == "str":
+            if not isinstance(value, str) or (self.choices and value not in self.choices):
+                raise bad
+            return value
+        if self.kind == "table":
+            if not isinstance(value, dict):
+                raise bad
+            return value
+        if self.kind == "strs":
+            if not isinstance(value, list) or any(v not in self.choices for v in value):
+                raise bad
+            return value
+        if self.kind == "floats":
+            if not isinstance(value, list):
+                raise bad
+            return [self._number(key, v, bad, float) for v in value]
+        return self._number(key, value, bad, int if self.kind == "int" else float)
+
+    def _number(self, key: str, value: Any, bad: SceneError, cast: type) -> Any:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise bad
+        if cast is int and not isinstance(value, int):
+            raise bad
+        value = cast(value)
+        if not math.isfinite(value):
+            raise bad
+        below = value <= self.lo if self.lo_open else value < self.lo
+        above = value >= self.hi if self.hi_open else value > self.hi
+        if below or above:
+            raise bad
+        return value
+
+
+def _pos(hi: float = INF, *, lo: float = 0.0, lo_open: bool = True) -> Rule:
+    return Rule("float", lo=lo, hi=hi, lo_open=lo_open)
+
+
+def key(rule: Rule, unit: str = "") -> Any:
+    """A scene key: a dataclass field that carries its rule and unit (no default: defaults.toml has it)."""
+    return field(metadata={"rule": rule, "unit": unit})
+
+
+@dataclass(frozen=True)
+class Params(Mapping):
+    """An immutable mapping (material parameters, PETSc options) that pickles and compares by value."""
+
+    pairs: tuple[tuple[str, Any], ...] = ()
+
+    @classmethod
+    def of(cls, mapping: Mapping[str, Any]) -> Params:
+        return cls(tuple(mapping.items()))
+
+    def __getitem__(self, name: str) -> Any:
+        for k, v in self.pairs:
+            if k == name:
+                return v
+        raise KeyError(name)
+
+    def __iter__(self) -> Iterator[str]:
+        return (k for k, _ in self.pairs)
+
+    def __len__(self) -> int:
+        return len(self.pairs)
+
+    def as_dict(self) -> dict[str, Any]:
+        return dict(self.pairs)
+
+
+_MODULUS = _pos(1e13)
+_VOLUMETRIC = _pos(1e15, lo_open=False)  # 1/d may be 0 (incompressible limit handled by "mixed")
+MM, N, PA, S = "mm", "N", "Pa", "s"
+
+
+@dataclass(frozen=True)
+class GeometrySection:
+    """``[geometry]``: the suture and the tissue cylinder (lengths in mm)."""
+
+    cones: int = key(Rule("int", lo=0, hi=64))
+    cone_kind: str = key(Rule("str", choices=("hollow", "full")))
+    cone_height_mm: float = key(_pos(100.0), MM)
+    cone_base_diameter_mm: float = key(_pos(100.0), MM)
+    cone_top_diameter_mm: float = key(_pos(100.0), MM)
+    cone_wall_mm: float = key(_pos(10.0), MM)
+    cone_spacing_mm: float = key(_pos(1000.0), MM)
+    cone_orientation: str = key(Rule("str", choices=("apex_to_pull", "base_to_pull")))
+    cone_fillet_mm: float = key(_pos(10.0, lo_open=False), MM)
+    thread_radius_mm: float = key(_pos(10.0), MM)
+    thread_free_length_mm: float = key(_pos(1000.0), MM)
+    hypodermis_mm: float = key(_pos(1000.0), MM)
+    dermis_mm: float = key(_pos(1000.0), MM)
+    epidermis_mm: float = key(_pos(1000.0), MM)
+    margin_pull_mm: float = key(_pos(1000.0), MM)
+    margin_far_mm: float = key(_pos(1000.0), MM)
+
+
+@dataclass(frozen=True)
+class MeshSection:
+    """``[mesh]``: element sizes at refinement 0 and the Lagrange degree."""
+
+    refinement: int = key(Rule("int", lo=0, hi=6))
+    degree: int = key(Rule("int", lo=1, hi=2))
+    size_suture_mm: float = key(_pos(10.0), MM)
+    size_rim_mm: float = key(_pos(10.0), MM)
+    size_far_mm: float = key(_pos(100.0), MM)
+    grading_mm: float = key(_pos(1000.0), MM)
+
+
+@dataclass(frozen=True)
+class LoadingSection:
+    """``[loading]``: the pull force, where it is reported, and its time course."""
+
+    force_n: float = key(_pos(1000.0), N)
+    report_forces_n: tuple[float, ...] = key(Rule("floats", lo=0.0, hi=1000.0, lo_open=True), N)
+    ramp_s: float = key(_pos(1e6), S)
+    hold_s: float = key(_pos(1e6, lo_open=False), S)
+
+
+@dataclass(frozen=True)
+class SolverSection:
+    """``[solver]``: load stepping, Newton tolerances, linear solver."""
+
+    initial_step: float = key(_pos(1.0))
+    min_step: float = key(_pos(1.0))
+    max_step: float = key(_pos(1.0))
+    grow: float = key(Rule("float", lo=1.0, hi=10.0))
+    easy_iterations: int = key(Rule("int", lo=1, hi=100))
+    max_iterations: int = key(Rule("int", lo=1, hi=1000))
+    rtol: float = key(_pos(1.0))
+    atol: float = key(_pos(1.0), N)
+    linear_solver: str = key(Rule("str", choices=("mumps", "superlu_dist", "petsc")))
+    petsc_options: Params = key(Rule("table"))
+    gent_limit_fraction: float = key(Rule("float", lo=0.0, hi=1.0, lo_open=True))
+
+
+@dataclass(frozen=True)
+class OutputSection:
+    """``[output]``: which quantities, fields and measures are computed."""
+
+    fields: bool = key(Rule("bool"))
+    rim_exclusion_mm: float = key(_pos(100.0, lo_open=False), MM)
+    quantities: tuple[str, ...] = key(Rule("strs", choices=("usum", "seqv", "eptoeqv")))
+
+
+@dataclass(frozen=True)
+class EffectsSection:
+    """``[effects]``: the physics a scene calls for, and the constants of each effect."""
+
+    inertia: bool = key(Rule("bool"))
+    suture: str = key(Rule("str", choices=("elastic", "rigid")))
+    incompressibility: str = key(Rule("str", choices=("displacement", "mixed")))
+    gravity: bool = key(Rule("bool"))
+    density_hypodermis_kg_m3: float = key(_pos(1e5), "kg/m^3")
+    density_dermis_kg_m3: float = key(_pos(1e5), "kg/m^3")
+    density_epidermis_kg_m3: float = key(_pos(1e5), "kg/m^3")
+    density_suture_kg_m3: float = key(_pos(1e5), "kg/m^3")
+    rayleigh_mass_per_s: float = key(_pos(1e9, lo_open=False), "1/s")
+    rayleigh_stiffness_s: float = key(_pos(1.0, lo_open=False), S)
+    time_scheme: str = key(Rule("str", choices=("newmark", "generalized_alpha")))
+    spectral_radius: float = key(Rule("float", lo=0.0, hi=1.0))
+    time_step_s: float = key(_pos(1e6), S)
+    gravity_m_s2: float = key(_pos(1e3, lo_open=False), "m/s^2")
+    gravity_direction: str = key(Rule("str", choices=("-z", "+z")))
+
+    def density(self, region: str) -> float:
+        """Mass density (kg/m^3) of a material region."""
+        return getattr(self, f"density_{region}_kg_m3")
+
+
+#: The sections with fixed keys, by name (``materials`` is per region: :data:`MODEL_PARAMETERS`).
+SECTIONS: dict[str, type] = {
+    "geometry": GeometrySection,
+    "mesh": MeshSection,
+    "loading": LoadingSection,
+    "solver": SolverSection,
+    "output": OutputSection,
+    "effects": EffectsSection,
+}
+
+#: Rules for every fixed key, by dotted name (derived from the declarations above).
+RULES: dict[str, Rule] = {
+    f"{name}.{f.name}": f.metadata["rule"] for name, cls in SECTIONS.items() for f in fields(cls)
+}
+#: Unit of every fixed key that has one.
+UNITS: dict[str, str] = {
+    f"{name}.{f.name}": f.metadata["unit"] for name, cls in SECTIONS.items() for f in fields(cls) if f.metadata["unit"]
+}
+
+TISSUE_MODELS = ("yeoh", "gent")
+
+#: Parameters of each material model (a Yeoh model takes c10..c60 and inv_d1..inv_d6), all in Pa
+#: except Gent's dimensionless jm and SVK's poisson.
+MODEL_PARAMETERS: dict[str, dict[str, Rule]] = {
+    "yeoh": {
+        **{f"c{i}0": Rule("float", lo=-1e12, hi=1e12) for i in range(1, 7)},
+        **{f"inv_d{k}": _VOLUMETRIC for k in range(1, 7)},
+    },
+    "gent": {"mu": _MODULUS, "jm": _pos(1e6), "inv_d": _VOLUMETRIC},
+    "svk": {"young": _MODULUS, "poisson": Rule("float", lo=-1.0, hi=0.5, lo_open=True, hi_open=True)},
+}

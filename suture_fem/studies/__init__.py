@@ -1,0 +1,1 @@
+"""Studies built on the core pipeline: verification, convergence, sweep, reproduce, maxload, hard cases."""

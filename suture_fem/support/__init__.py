@@ -1,0 +1,1 @@
+"""Support: dolfinx-version compatibility, rank-0 work with collective outcomes, files, errors, logging."""

@@ -1,0 +1,105 @@
+"""The package's shape, checked: imports point one way, modules and functions stay small, one schema.
+
+The layers, bottom up (docs/architecture.md): support < scene < geometry < physics < solve < outputs
+< pipeline, plots < studies < cli. A module may import its own folder and any lower layer, never a
+higher one. ``geometry.regions`` is the one table of region names and tags: it imports nothing from
+the package, so every layer may read it (the scene names its material regions from it).
+"""
+
+from __future__ import annotations
+
+import ast
+import tomllib
+from dataclasses import fields
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGE = ROOT / "suture_fem"
+LAYERS = {"support": 0, "scene": 1, "geometry": 2, "physics": 3, "solve": 4, "outputs": 5, "pipeline": 6,
+          "plots": 6, "studies": 7, "cli": 8}
+LEAF_TABLES = {"suture_fem.geometry.regions"}
+MAX_MODULE_LINES = 400
+MAX_FUNCTION_LINES = 60
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    """Every ``suture_fem`` module a file imports (at any depth of the file, lazily or not)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, a.name) for a in node.names if a.name.startswith("suture_fem")]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("suture_fem"):
+            found += [(node.lineno, f"{node.module}.{a.name}") for a in node.names]
+    return found
+
+
+def _layer(module: str) -> tuple[str, int] | None:
+    parts = module.split(".")
+    if len(parts) < 2 or parts[1] not in LAYERS:
+        return None  # the package root (__version__)
+    return parts[1], LAYERS[parts[1]]
+
+
+def _sources() -> list[Path]:
+    return sorted(PACKAGE.rglob("*.py"))
+
+
+def test_imports_point_one_way():
+    back_edges = []
+    for path in _sources():
+        me = _module_name(path)
+        mine = _layer(me)
+        for line, target in _imports(path):
+            if me in LEAF_TABLES:
+                back_edges.append(f"{me}:{line} imports {target} (a leaf table imports nothing)")
+                continue
+            if any(target == t or target.startswith(t + ".") for t in LEAF_TABLES):
+                continue
+            theirs = _layer(target)
+            if mine is None or theirs is None or theirs[0] == mine[0]:
+                continue
+            if theirs[1] >= mine[1]:
+                back_edges.append(f"{me}:{line} ({mine[0]}) imports {target} ({theirs[0]})")
+    assert not back_edges, "imports against the pipeline's direction:\n" + "\n".join(back_edges)
+
+
+@pytest.mark.parametrize("folder", ["demos", "benchmarks", "suture_fem"])
+def test_only_the_command_line_imports_the_command_line(folder):
+    offenders = []
+    for path in sorted((ROOT / folder).rglob("*.py")):
+        if path.is_relative_to(PACKAGE / "cli"):
+            continue
+        offenders += [f"{path.relative_to(ROOT)}:{line}" for line, t in _imports(path)
+                      if t == "suture_fem.cli" or t.startswith("suture_fem.cli.")]
+    assert not offenders, "outside cli/, only subprocesses may run the command line: " + ", ".join(offenders)
+
+
+def test_modules_and_functions_stay_small():
+    too_long = []
+    for path in _sources():
+        lines = len(path.read_text().splitlines())
+        if lines > MAX_MODULE_LINES:
+            too_long.append(f"{path.relative_to(ROOT)}: {lines} lines (module limit {MAX_MODULE_LINES})")
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > MAX_FUNCTION_LINES:
+                    too_long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name}: {n} lines "
+                                    f"(function limit {MAX_FUNCTION_LINES})")
+    assert not too_long, "split by responsibility:\n" + "\n".join(too_long)
+
+
+def test_every_declared_key_has_a_default_and_every_default_is_declared():
+    from suture_fem.scene.schema import SECTIONS
+
+    defaults = tomllib.loads((PACKAGE / "scene" / "defaults.toml").read_text())
+    for name, section in SECTIONS.items():
+        assert set(defaults[name]) == {f.name for f in fields(section)}, name
+    assert set(defaults) == {*SECTIONS, "materials"}

@@ -44,8 +44,10 @@ def _pyvista() -> Any:
 
 
 def file_figure(**kwargs: Any) -> Any:
-    """A matplotlib Figure drawn for a file only, without pyplot: the process's backend (a notebook's
-    inline backend, an interactive window) is left alone, and the figure is never shown or kept open.
+    """A matplotlib Figure drawn for a file only, without pyplot.
+
+    The process's backend (a notebook's inline backend, an interactive window) is left alone, and the
+    figure is never shown or kept open.
     """
     from matplotlib.figure import Figure
 
@@ -277,6 +279,7 @@ def plot_force_displacement(
         reference: label -> [[force_n, displacement_mm], ...], drawn as open markers in the colour of
             the curve with the same label (black when there is none), e.g. the paper's values.
         reference_name: what the reference is, for the legend.
+        title: the figure's title.
     """
     fig = file_figure(figsize=(8.2, 4.8), layout="constrained")
     ax = fig.subplots()
@@ -316,6 +319,7 @@ def plot_trends(
         png: output path.
         xlabel: label of the x axis.
         log_panels: panel labels drawn with a logarithmic y axis (values spanning decades).
+        title: the figure's title.
     """
     fig = file_figure(figsize=(4.2 * len(quantities), 3.8), layout="constrained")
     axes = fig.subplots(1, len(quantities), squeeze=False)

@@ -34,6 +34,7 @@ def _scene_args(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of every command (the studies' commands register themselves)."""
     parser = argparse.ArgumentParser(prog="suture-fem", description=__doc__.split("\n\n")[0])
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -62,6 +63,7 @@ def _scene_name(source: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one command on MPI's world communicator; returns the exit code (0, 2 bad input, 3 stopped)."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD  # the command line is the one place that picks the communicator

@@ -30,6 +30,7 @@ class MeshSizes:
 
     @classmethod
     def from_section(cls, m: MeshSection) -> MeshSizes:
+        """Sizes of a scene's ``[mesh]`` section: each halved ``refinement`` times (the rim never coarser)."""
         f = 0.5**m.refinement
         return cls(m.size_suture_mm * f, min(m.size_rim_mm, m.size_suture_mm) * f, m.size_far_mm * f, m.grading_mm)
 

@@ -187,6 +187,7 @@ def parse_scene(source: str | Path | None = "paper", overrides: list[str] | None
 
 
 def unflatten(key: str, value: Any) -> dict[str, Any]:
+    """The nested mapping that sets one dotted key, e.g. {"mesh": {"degree": 1}}."""
     tree: dict[str, Any] = {}
     _set(tree, key, value)
     return tree

@@ -32,6 +32,7 @@ class MaterialSpec:
     params: Params
 
     def as_dict(self) -> dict[str, Any]:
+        """The ``[materials.<region>]`` table: model and parameters."""
         return {"model": self.model, **self.params.as_dict()}
 
 
@@ -45,6 +46,7 @@ class MaterialsSection:
     suture: MaterialSpec
 
     def of(self, region: str) -> MaterialSpec:
+        """The material of a region by name (``hypodermis``, ``dermis``, ``epidermis``, ``suture``)."""
         return getattr(self, region)
 
 

@@ -36,8 +36,10 @@ class Rule:
     choices: tuple[str, ...] = ()
 
     def describe(self) -> str:
+        """The allowed values in words, as the one-line error message says them."""
         if self.choices:
-            return ("a list of any of " if self.kind == "strs" else "one of ") + ", ".join(f'"{c}"' for c in self.choices)
+            words = ", ".join(f'"{c}"' for c in self.choices)
+            return ("a list of any of " if self.kind == "strs" else "one of ") + words
         if self.kind in ("int", "float", "floats"):
             noun = {"int": "an integer", "float": "a finite number", "floats": "a list of finite numbers"}[
                 self.kind
@@ -107,6 +109,7 @@ class Params(Mapping):
 
     @classmethod
     def of(cls, mapping: Mapping[str, Any]) -> Params:
+        """The same entries, in the same order."""
         return cls(tuple(mapping.items()))
 
     def __getitem__(self, name: str) -> Any:
@@ -122,6 +125,7 @@ class Params(Mapping):
         return len(self.pairs)
 
     def as_dict(self) -> dict[str, Any]:
+        """A plain (mutable) dict copy."""
         return dict(self.pairs)
 
 

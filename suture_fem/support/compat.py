@@ -114,6 +114,7 @@ def vtk_mesh(space: Any) -> tuple[Any, Any, Any]:
 
 
 def create_xdmf(comm: Any, path: str) -> Any:
+    """An XDMF file opened for writing."""
     return dolfinx.io.XDMFFile(comm, path, "w")
 
 

@@ -37,8 +37,10 @@ def write_text(path: str | Path, text: str) -> Path:
 
 
 def write_json(path: str | Path, data: Any) -> Path:
+    """Write JSON atomically (numpy scalars as Python numbers, non-finite floats as null)."""
     return write_text(path, json.dumps(_clean(data), indent=2, allow_nan=False) + "\n")
 
 
 def read_json(path: str | Path) -> Any:
+    """Read a JSON file."""
     return json.loads(Path(path).read_text())

@@ -17,6 +17,7 @@ class _RankFilter(logging.Filter):
 
 
 def setup_logging(comm: Any, verbose: bool = False) -> None:
+    """Log "suture_fem" records of rank 0 to stderr (DEBUG with ``verbose``), compiler chatter off."""
     logger = logging.getLogger("suture_fem")
     logger.handlers.clear()
     handler = logging.StreamHandler(sys.stderr)

@@ -1,6 +1,7 @@
 """The package's shape, checked: imports point one way, modules and functions stay small, one schema.
 
-The layers, bottom up (docs/architecture.md): support < scene < geometry < physics < solve < outputs
+The layers, bottom up (docs/architecture.md; the table is scripts/architecture.py's, which draws
+docs/architecture.png from the same imports): support < scene < geometry < physics < solve < outputs
 < pipeline, plots < studies < cli. A module may import its own folder and any lower layer, never a
 higher one. ``geometry.regions`` is the one table of region names and tags: it imports nothing from
 the package, so every layer may read it (the scene names its material regions from it).
@@ -15,29 +16,10 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-PACKAGE = ROOT / "suture_fem"
-LAYERS = {"support": 0, "scene": 1, "geometry": 2, "physics": 3, "solve": 4, "outputs": 5, "pipeline": 6,
-          "plots": 6, "studies": 7, "cli": 8}
-LEAF_TABLES = {"suture_fem.geometry.regions"}
+from scripts.architecture import LAYERS, LEAF_TABLES, PACKAGE, ROOT, imports_of, module_name
+
 MAX_MODULE_LINES = 400
 MAX_FUNCTION_LINES = 60
-
-
-def _module_name(path: Path) -> str:
-    parts = path.relative_to(ROOT).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-
-
-def _imports(path: Path) -> list[tuple[int, str]]:
-    """Every ``suture_fem`` module a file imports (at any depth of the file, lazily or not)."""
-    found = []
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.Import):
-            found += [(node.lineno, a.name) for a in node.names if a.name.startswith("suture_fem")]
-        elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("suture_fem"):
-            found += [(node.lineno, f"{node.module}.{a.name}") for a in node.names]
-    return found
 
 
 def _layer(module: str) -> tuple[str, int] | None:
@@ -54,9 +36,9 @@ def _sources() -> list[Path]:
 def test_imports_point_one_way():
     back_edges = []
     for path in _sources():
-        me = _module_name(path)
+        me = module_name(path)
         mine = _layer(me)
-        for line, target in _imports(path):
+        for line, target in imports_of(path):
             if me in LEAF_TABLES:
                 back_edges.append(f"{me}:{line} imports {target} (a leaf table imports nothing)")
                 continue
@@ -76,7 +58,7 @@ def test_only_the_command_line_imports_the_command_line(folder):
     for path in sorted((ROOT / folder).rglob("*.py")):
         if path.is_relative_to(PACKAGE / "cli"):
             continue
-        offenders += [f"{path.relative_to(ROOT)}:{line}" for line, t in _imports(path)
+        offenders += [f"{path.relative_to(ROOT)}:{line}" for line, t in imports_of(path)
                       if t == "suture_fem.cli" or t.startswith("suture_fem.cli.")]
     assert not offenders, "outside cli/, only subprocesses may run the command line: " + ", ".join(offenders)
 

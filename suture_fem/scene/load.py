@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 import difflib
 import logging
+import os
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -21,7 +22,7 @@ from typing import Any
 
 from suture_fem.geometry.regions import REGIONS
 from suture_fem.scene.model import Scene
-from suture_fem.scene.schema import MODEL_PARAMETERS, RULES, TISSUE_MODELS, Rule
+from suture_fem.scene.schema import MODEL_PARAMETERS, PETSC_OPTIONS, RULES, TISSUE_MODELS, Rule
 from suture_fem.support.errors import SceneError
 
 log = logging.getLogger("suture_fem")
@@ -39,24 +40,71 @@ def builtin_names() -> list[str]:
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
+def looks_like_path(source: str | Path) -> bool:
+    """The rule that tells a scene file from a built-in scene: a path ends in .toml or names a folder.
+
+    ``paper`` is always the built-in scene, even when a file or folder named ``paper`` sits in the
+    current folder; ``./paper``, ``dir/paper.toml`` and ``paper.toml`` are files.
+    """
+    text = str(source)
+    return isinstance(source, Path) or text.endswith(".toml") or "/" in text or os.sep in text
+
+
 def read_scene_source(source: str | Path) -> tuple[dict[str, Any], str]:
     """Read a scene file or a built-in scene by name; return (raw mapping, description)."""
-    path = Path(source)
-    if path.suffix == ".toml" or path.exists():
-        if not path.is_file():
-            raise SceneError(f"scene file {str(path)!r} does not exist")
-        text, where = path.read_text(), str(path)
+    if looks_like_path(source):
+        path = Path(source)
+        where = f"scene file {str(path)!r}"
+        text = read_text_file(path, where)
     elif str(source) in builtin_names():
         text = resources.files("suture_fem.scene").joinpath(f"builtin/{source}.toml").read_text()
         where = f"built-in scene {source!r}"
     else:
-        raise SceneError(
-            f"scene {str(source)!r} is neither a TOML file nor a built-in scene ({', '.join(builtin_names())})"
-        )
+        hint = f"; to read the file {source!r} in this folder, write ./{source}" if Path(source).exists() else ""
+        raise SceneError(f"scene {str(source)!r} is not a built-in scene (one of {', '.join(builtin_names())}) "
+                         f"and not a file path (a path ends in .toml or contains /){hint}")
+    return parse_toml(text, where), where
+
+
+def read_text_file(path: Path, where: str) -> str:
+    """The UTF-8 text of a data file (scene or sweep); SceneError in one line when it cannot be read."""
+    if path.is_dir():
+        raise SceneError(f"{where} is a folder, not a file")
+    if not path.exists():
+        raise SceneError(f"{where} does not exist")
     try:
-        return tomllib.loads(text), where
+        return path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{where} is not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
+    except OSError as exc:
+        raise SceneError(f"{where} cannot be read: {exc.strerror or exc}") from None
+
+
+#: Deepest nesting of tables and arrays a scene or sweep file may use (scenes need three levels).
+MAX_NESTING = 16
+
+
+def parse_toml(text: str, where: str) -> dict[str, Any]:
+    """Parse TOML text; SceneError in one line for invalid or absurdly nested TOML."""
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{where}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SceneError(f"{where}: tables or arrays nested too deeply (at most {MAX_NESTING} levels)") from None
+    if _depth(data) > MAX_NESTING:
+        raise SceneError(f"{where}: tables or arrays nested too deeply (at most {MAX_NESTING} levels)")
+    return data
+
+
+def _depth(value: Any, level: int = 0) -> int:
+    if level > MAX_NESTING:
+        return level
+    if isinstance(value, dict):
+        return max((_depth(v, level + 1) for v in value.values()), default=level + 1)
+    if isinstance(value, list):
+        return max((_depth(v, level + 1) for v in value), default=level + 1)
+    return level
 
 
 def parse_override(text: str) -> tuple[str, Any]:
@@ -70,14 +118,23 @@ def parse_override(text: str) -> tuple[str, Any]:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw
+    except RecursionError:
+        raise SceneError(f"--set {key}: value nested too deeply") from None
+    if _depth(value) > MAX_NESTING:
+        raise SceneError(f"--set {key}: value nested too deeply (at most {MAX_NESTING} levels)")
     return key, value
 
 
 def _flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Dotted key -> value.
+
+    A table's entries are keys of their own (so overrides merge into it); an empty table is a value
+    (``petsc_options = {}``).
+    """
     flat: dict[str, Any] = {}
     for key, value in tree.items():
         name = f"{prefix}{key}"
-        if isinstance(value, dict) and not (name in RULES and RULES[name].kind == "table"):
+        if isinstance(value, dict) and value:
             flat.update(_flatten(value, name + "."))
         else:
             flat[name] = value
@@ -117,6 +174,18 @@ def _material_rule(key: str, scene: dict[str, Any]) -> Rule | None:
     return params[name]
 
 
+PETSC_PREFIX = "solver.petsc_options."
+
+
+def _petsc_rule(key: str) -> Rule | None:
+    if not key.startswith(PETSC_PREFIX):
+        return None
+    name = key[len(PETSC_PREFIX):]
+    if name not in PETSC_OPTIONS:
+        raise SceneError(f"scene key {key}: not an allowed solver option (allowed: {', '.join(PETSC_OPTIONS)})")
+    return PETSC_OPTIONS[name]
+
+
 def merge(base: dict[str, Any], overlay: dict[str, Any], where: str) -> dict[str, Any]:
     """Return base with overlay's keys set on it (keys checked to exist, values not yet)."""
     known = list(_flatten(base))
@@ -129,8 +198,10 @@ def merge(base: dict[str, Any], overlay: dict[str, Any], where: str) -> dict[str
             # A change of model replaces the region's parameter set.
             if key.endswith(".model") and value != merged["materials"][region].get("model"):
                 merged["materials"][region] = {}
-        elif key not in known and not key.startswith("solver.petsc_options."):
+        elif key not in known and not key.startswith(PETSC_PREFIX):
             raise _unknown(key, known)
+        if key == "solver.petsc_options" and value == {}:
+            continue  # an empty table adds nothing; the options already set stay
         _set(merged, key, value)
     return merged
 
@@ -139,7 +210,7 @@ def validate(scene: dict[str, Any]) -> dict[str, Any]:
     """Check every key's type and range, and the cross-key rules; return the normalised scene."""
     out = copy.deepcopy(scene)
     for key, value in _flatten(scene).items():
-        rule = RULES.get(key) or _material_rule(key, scene)
+        rule = RULES.get(key) or _material_rule(key, scene) or _petsc_rule(key)
         if rule is None:
             raise _unknown(key, list(RULES))
         _set(out, key, rule.check(key, value))

@@ -96,6 +96,15 @@ def _pos(hi: float = INF, *, lo: float = 0.0, lo_open: bool = True) -> Rule:
     return Rule("float", lo=lo, hi=hi, lo_open=lo_open)
 
 
+#: Shortest length (mm) a geometric dimension or element size may have: 1 micrometre, far below any
+#: tissue layer or suture feature and above what gmsh can mesh in a model tens of millimetres long.
+MIN_LENGTH_MM = 1e-3
+
+
+def _length(hi: float) -> Rule:
+    return Rule("float", lo=MIN_LENGTH_MM, hi=hi)
+
+
 def key(rule: Rule, unit: str = "") -> Any:
     """A scene key: a dataclass field that carries its rule and unit (no default: defaults.toml has it)."""
     return field(metadata={"rule": rule, "unit": unit})
@@ -140,20 +149,20 @@ class GeometrySection:
 
     cones: int = key(Rule("int", lo=0, hi=64))
     cone_kind: str = key(Rule("str", choices=("hollow", "full")))
-    cone_height_mm: float = key(_pos(100.0), MM)
-    cone_base_diameter_mm: float = key(_pos(100.0), MM)
-    cone_top_diameter_mm: float = key(_pos(100.0), MM)
-    cone_wall_mm: float = key(_pos(10.0), MM)
-    cone_spacing_mm: float = key(_pos(1000.0), MM)
+    cone_height_mm: float = key(_length(100.0), MM)
+    cone_base_diameter_mm: float = key(_length(100.0), MM)
+    cone_top_diameter_mm: float = key(_length(100.0), MM)
+    cone_wall_mm: float = key(_length(10.0), MM)
+    cone_spacing_mm: float = key(_length(1000.0), MM)
     cone_orientation: str = key(Rule("str", choices=("apex_to_pull", "base_to_pull")))
     cone_fillet_mm: float = key(_pos(10.0, lo_open=False), MM)
-    thread_radius_mm: float = key(_pos(10.0), MM)
-    thread_free_length_mm: float = key(_pos(1000.0), MM)
-    hypodermis_mm: float = key(_pos(1000.0), MM)
-    dermis_mm: float = key(_pos(1000.0), MM)
-    epidermis_mm: float = key(_pos(1000.0), MM)
-    margin_pull_mm: float = key(_pos(1000.0), MM)
-    margin_far_mm: float = key(_pos(1000.0), MM)
+    thread_radius_mm: float = key(_length(10.0), MM)
+    thread_free_length_mm: float = key(_length(1000.0), MM)
+    hypodermis_mm: float = key(_length(1000.0), MM)
+    dermis_mm: float = key(_length(1000.0), MM)
+    epidermis_mm: float = key(_length(1000.0), MM)
+    margin_pull_mm: float = key(_length(1000.0), MM)
+    margin_far_mm: float = key(_length(1000.0), MM)
 
 
 @dataclass(frozen=True)
@@ -162,10 +171,10 @@ class MeshSection:
 
     refinement: int = key(Rule("int", lo=0, hi=6))
     degree: int = key(Rule("int", lo=1, hi=2))
-    size_suture_mm: float = key(_pos(10.0), MM)
-    size_rim_mm: float = key(_pos(10.0), MM)
-    size_far_mm: float = key(_pos(100.0), MM)
-    grading_mm: float = key(_pos(1000.0), MM)
+    size_suture_mm: float = key(_length(10.0), MM)
+    size_rim_mm: float = key(_length(10.0), MM)
+    size_far_mm: float = key(_length(100.0), MM)
+    grading_mm: float = key(_length(1000.0), MM)
 
 
 @dataclass(frozen=True)
@@ -246,6 +255,45 @@ RULES: dict[str, Rule] = {
 #: Unit of every fixed key that has one.
 UNITS: dict[str, str] = {
     f"{name}.{f.name}": f.metadata["unit"] for name, cls in SECTIONS.items() for f in fields(cls) if f.metadata["unit"]
+}
+
+#: The PETSc options a scene may set in ``solver.petsc_options`` (under the solver's own prefix), each
+#: with its type and range: line search, tolerances, iteration limits, the direct solver and its
+#: ordering, MUMPS controls. Nothing else is accepted: viewer, monitor, log and options-file options
+#: would create or overwrite files, and ``pc_type = "python"`` would import and run any module.
+PETSC_OPTIONS: dict[str, Rule] = {
+    "snes_linesearch_type": Rule("str", choices=("bt", "basic", "l2", "cp", "nleqerr")),
+    "snes_linesearch_order": Rule("int", lo=1, hi=3),
+    "snes_linesearch_damping": Rule("float", lo=0.0, hi=1.0, lo_open=True),
+    "snes_linesearch_maxstep": _pos(1e12),
+    "snes_linesearch_minlambda": _pos(1.0),
+    "snes_linesearch_max_it": Rule("int", lo=1, hi=100),
+    "snes_max_it": Rule("int", lo=1, hi=1000),
+    "snes_max_funcs": Rule("int", lo=1, hi=10**7),
+    "snes_rtol": _pos(1.0),
+    "snes_atol": _pos(1.0),
+    "snes_stol": _pos(1.0, lo_open=False),
+    "snes_divergence_tolerance": Rule("float", lo=-1.0, hi=1e300),
+    "snes_lag_jacobian": Rule("int", lo=-2, hi=100),
+    "ksp_type": Rule("str", choices=("preonly",)),
+    "pc_type": Rule("str", choices=("lu", "cholesky")),
+    "pc_factor_mat_solver_type": Rule("str", choices=("mumps", "superlu_dist", "petsc")),
+    "pc_factor_mat_ordering_type": Rule("str", choices=("nd", "rcm", "qmd", "1wd", "natural")),
+    "mat_mumps_icntl_7": Rule("int", lo=0, hi=7),  # sequential ordering
+    "mat_mumps_icntl_8": Rule("int", lo=-2, hi=77),  # scaling
+    "mat_mumps_icntl_10": Rule("int", lo=-100, hi=100),  # iterative refinement steps
+    "mat_mumps_icntl_13": Rule("int", lo=-1, hi=1),  # root parallelism
+    "mat_mumps_icntl_14": Rule("int", lo=0, hi=100000),  # workspace increase (%)
+    "mat_mumps_icntl_23": Rule("int", lo=0, hi=10**7),  # working memory per process (MB)
+    "mat_mumps_icntl_24": Rule("int", lo=0, hi=1),  # null pivot detection
+    "mat_mumps_icntl_28": Rule("int", lo=0, hi=2),  # sequential or parallel analysis
+    "mat_mumps_icntl_29": Rule("int", lo=0, hi=2),  # parallel ordering tool
+    "mat_mumps_icntl_35": Rule("int", lo=0, hi=3),  # block low-rank factorisation
+    "mat_mumps_cntl_1": Rule("float", lo=0.0, hi=1.0),  # relative pivoting threshold
+    "mat_mumps_cntl_3": Rule("float", lo=-1e300, hi=1e300),  # absolute pivoting threshold
+    "mat_mumps_cntl_4": Rule("float", lo=-1.0, hi=1e300),  # static pivoting threshold
+    "mat_mumps_cntl_5": Rule("float", lo=0.0, hi=1e300),  # fixation for null pivots
+    "mat_mumps_cntl_7": Rule("float", lo=0.0, hi=1.0),  # block low-rank dropping
 }
 
 TISSUE_MODELS = ("yeoh", "gent")

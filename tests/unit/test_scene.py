@@ -35,7 +35,7 @@ def test_overrides_are_typed_as_toml_values():
         ("geometry.cones=-1", ["geometry.cones", ">= 0"]),
         ("geometry.cones=2.5", ["geometry.cones", "integer"]),
         ("geometry.cone_kind=solid", ["geometry.cone_kind", '"hollow"', '"full"']),
-        ("geometry.dermis_mm=-0.5", ["geometry.dermis_mm", "> 0"]),
+        ("geometry.dermis_mm=-0.5", ["geometry.dermis_mm", ">= 0.001"]),
         ("geometry.cone_spacing_mm=2.0", ["overlap", "geometry.cone_spacing_mm", "geometry.cone_height_mm"]),
         ("geometry.cone_base_diameter_mm=6.5", ["hypodermis", "geometry.cone_base_diameter_mm"]),
         ("materials.epidermis.jm=0", ["materials.epidermis.jm", "> 0"]),
@@ -60,7 +60,7 @@ def test_bad_input_names_the_key_and_range(override, words):
 
 
 def test_unknown_scene_file_or_name():
-    with pytest.raises(SceneError, match="neither a TOML file nor a built-in scene"):
+    with pytest.raises(SceneError, match="not a built-in scene .* and not a file path"):
         load_scene("no_such_scene")
     with pytest.raises(SceneError, match="does not exist"):
         load_scene("missing.toml")

@@ -1,0 +1,111 @@
+"""Issue 15's cases, one test each: scenes are data, bad input is one line (exit 2) before any meshing.
+
+docs/reliability.md lists every case with its command, what is expected and what was observed.
+The scene-level cases call the scene reader directly; the command-line cases run ``suture-fem`` in
+process and check the exit code, the single line and that no output folder was created.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from suture_fem.scene.load import parse_scene
+from suture_fem.support.errors import SceneError
+
+
+def _error(source, overrides=()):
+    with pytest.raises(SceneError) as err:
+        parse_scene(source, list(overrides))
+    message = str(err.value)
+    assert "\n" not in message
+    return message
+
+
+# ----------------------------------------------------------------------------- B1, B2, B5: PETSc options
+
+@pytest.mark.parametrize("option", [
+    '{pc_type = "python", pc_python_type = "evil.Attr"}',  # B1: PETSc would import and call any module
+    '{snes_monitor = "ascii:/tmp/suture_fem_b2.txt"}',  # B2: viewers and monitors write files
+    '{snes_view = "ascii:/tmp/suture_fem_b2.txt"}',
+    '{ksp_view_mat = "binary:/tmp/suture_fem_b2.bin"}',
+    '{options_file = "/tmp/suture_fem_b2.opts"}',
+    '{log_view = "ascii:/tmp/suture_fem_b2.log"}',
+])
+def test_petsc_options_outside_the_declared_set_are_refused(option):
+    message = _error("paper", [f"solver.petsc_options={option}"])
+    assert "solver.petsc_options." in message
+    assert "allowed" in message or "expected" in message
+
+
+@pytest.mark.parametrize("override, words", [
+    ("solver.petsc_options.snes_linesearch_type=foo", ["snes_linesearch_type", '"bt"', '"basic"']),  # B5
+    ("solver.petsc_options.snes_max_it=[3]", ["snes_max_it", "integer"]),
+    ("solver.petsc_options.mat_mumps_icntl_14=true", ["mat_mumps_icntl_14", "integer"]),
+    ("solver.petsc_options.snes_rtol=-1", ["snes_rtol", "> 0"]),
+])
+def test_bad_petsc_option_values_are_one_line(override, words):
+    message = _error("paper", [override])
+    for w in words:
+        assert w in message, (w, message)
+
+
+def test_petsc_option_overrides_merge(tmp_path):
+    # B6: each --set solver.petsc_options.KEY=V adds to the table; the scene file's own options stay
+    scene_file = tmp_path / "s.toml"
+    scene_file.write_text('[solver]\npetsc_options = {snes_linesearch_type = "basic"}\n')
+    scene = parse_scene(str(scene_file), ["solver.petsc_options.mat_mumps_icntl_14=300",
+                                          "solver.petsc_options.snes_max_funcs=5000"])
+    assert dict(scene.solver.petsc_options) == {"snes_linesearch_type": "basic", "mat_mumps_icntl_14": 300,
+                                                "snes_max_funcs": 5000}
+
+
+# ----------------------------------------------------------------------------- B7: names and paths
+
+def test_a_builtin_name_is_never_hidden_by_a_file_of_that_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "paper").mkdir()
+    assert parse_scene("paper").geometry.cones == 4  # the built-in scene
+    assert "is a folder" in _error("./paper")  # the path
+    (tmp_path / "mine").write_text("[geometry]\ncones = 2\n")
+    message = _error("mine")
+    assert "not a built-in scene" in message and "./mine" in message
+    assert parse_scene("./mine").geometry.cones == 2
+
+
+# ----------------------------------------------------------------------------- B8-B10: unreadable files
+
+def test_non_utf8_scene_file(tmp_path):
+    bad = tmp_path / "latin1.toml"
+    bad.write_bytes("[geometry]\n# Gewebe: Fettgewebe \xfcber der Dermis\ncones = 2\n".encode("latin-1"))
+    assert "not UTF-8" in _error(str(bad))
+
+
+def test_toml_nested_thousands_deep(tmp_path):
+    deep = tmp_path / "deep.toml"
+    deep.write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
+    assert "nested too deeply" in _error(str(deep))
+    assert "nested too deeply" in _error("paper", ["solver.petsc_options=" + "[" * 3000 + "]" * 3000])
+
+
+def test_unreadable_scene_file(tmp_path, monkeypatch):
+    locked = tmp_path / "locked.toml"
+    locked.write_text("[geometry]\ncones = 2\n")
+    locked.chmod(0)
+    if os.access(locked, os.R_OK):  # root reads anything: make the read fail as it does for a user
+        def refuse(self):
+            raise PermissionError(13, "Permission denied", str(self))
+
+        monkeypatch.setattr(Path, "read_bytes", refuse)
+    assert "cannot be read: Permission denied" in _error(str(locked))
+
+
+# ----------------------------------------------------------------------------- B14: physical lengths
+
+@pytest.mark.parametrize("key", ["geometry.epidermis_mm", "geometry.cone_wall_mm", "geometry.thread_radius_mm",
+                                 "mesh.size_rim_mm"])
+def test_lengths_have_a_physical_lower_bound(key):
+    message = _error("paper", [f"{key}=1e-300"])
+    assert key in message and ">= 0.001" in message

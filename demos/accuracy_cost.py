@@ -17,7 +17,7 @@
 # ladder of meshes, every element size halved from one rung to the next, and records for each rung
 # what it cost (wall time, CPU time, degrees of freedom, memory) and what it gave (USUM, the
 # stresses and strains). From the ladder it estimates the error of every rung
-# (`suture_fem/convergence.py`).
+# (`suture_fem/studies/convergence/`).
 #
 # ## Richardson extrapolation
 #
@@ -48,7 +48,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 from mpi4py import MPI
 
-from suture_fem.studies import convergence as cv
+from suture_fem.studies.convergence.analysis import analyse
+from suture_fem.studies.convergence.ladder import Ladder, solve_ladder
+from suture_fem.studies.convergence.report import write_ledger
 from suture_fem.support.logging import setup_logging
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
@@ -71,12 +73,12 @@ if CI:
     degrees, caps = [1], {}
 else:
     degrees, caps = [1, 2], {2: 1}
-ladder = cv.Ladder("paper", overrides, degrees, [0, 1, 2], [None], [1.0], caps=caps)
+ladder = Ladder("paper", overrides, degrees, [0, 1, 2], [None], [1.0], caps=caps)
 out = Path("out/accuracy_cost")
-rungs = cv.solve_ladder(ladder, out, comm, inprocess=True, redo=False)
-analysis = cv.analyse(rungs, [1.0])
+rungs = solve_ladder(ladder, out, comm, inprocess=True, redo=False)
+analysis = analyse(rungs, [1.0])
 if comm.rank == 0:
-    cv.write_ledger(out, "one cone at 1 N", ladder, rungs, analysis)
+    write_ledger(out, "one cone at 1 N", ladder, rungs, analysis)
 ledger = json.loads((out / "ledger.json").read_text())
 
 # %% [markdown]
@@ -104,7 +106,7 @@ for r in ledger["rungs"]:
 # shrink) and "not monotone" get none.
 
 # %%
-for q, p in at.items():
+for p in at.values():
     for key, e in p["estimates"].items():
         changes = ", ".join(f"{c:.2%}" for c in e["changes_rel"])
         order = "-" if e["order"] is None else f"{e['order']:.2f}"

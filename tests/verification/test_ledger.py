@@ -7,7 +7,8 @@ import math
 
 import pytest
 
-from suture_fem.studies.convergence import QUANTITIES, richardson, two_rung_error
+from suture_fem.studies.convergence.quantities import QUANTITIES
+from suture_fem.studies.convergence.richardson import richardson, two_rung_error
 from tests.conftest import FAST, sets
 
 
@@ -95,7 +96,7 @@ def test_convergence_rejects_a_bad_ladder_before_solving(tmp_path):
 def test_singular_points_are_corners_junctions_and_where_interfaces_meet_the_end_faces():
     from suture_fem.geometry.section import Geometry
     from suture_fem.pipeline import load_scene
-    from suture_fem.studies.convergence import singular_points
+    from suture_fem.studies.convergence.singular import singular_points
 
     sharp = Geometry.from_section(load_scene("paper", ["geometry.cones=1"]).geometry)
     points = singular_points(sharp, 0.0)

@@ -1,0 +1,82 @@
+"""What the ledger follows through its ladder: the quantities, and how a rung names its forces.
+
+The raw maximum stress at a sharp cone rim is a stress singularity: its "value" grows with every
+refinement. Next to it the ledger follows maxima that have a limit: the maximum outside
+``output.rim_exclusion_mm`` of every rim (``seqv_outside_rim_pa``), and the tissue's maxima farther
+than each of :data:`SINGULAR_FREE_MM` from every singular point (see
+:mod:`suture_fem.studies.convergence.singular`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+#: Ratio of element sizes between consecutive refinements (mesh.MeshSizes halves every size).
+REFINEMENT_RATIO = 2.0
+
+#: Distances (mm) from every singular point beyond which a ledger rung also takes the tissue's maxima.
+SINGULAR_FREE_MM = (0.25, 0.5)
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """An output followed through the ladder: dotted path in an ``at_forces`` record of results.json."""
+
+    path: str
+    label: str
+    unit: str
+
+    def of(self, record: dict[str, Any]) -> float | None:
+        """The quantity's value in an ``at_forces`` record, None where the record has none."""
+        value = _lookup(record, self.path)
+        return float(value) if isinstance(value, (int, float)) else None
+
+    def where(self, record: dict[str, Any]) -> tuple[float, float] | None:
+        """(r, z) in mm where the maximum is taken (results.json's ``<name>_at_mm``)."""
+        at = _lookup(record, self.path + "_at_mm")
+        return (float(at[0]), float(at[1])) if isinstance(at, list) and len(at) == 2 else None
+
+
+def _lookup(record: dict[str, Any], dotted: str) -> Any:
+    """The value at a dotted path, None where the path does not exist."""
+    try:
+        node: Any = record
+        for part in dotted.split("."):
+            node = node[part]
+        return node
+    except (KeyError, TypeError):
+        return None
+
+
+def beyond(mm: float) -> str:
+    """The key suffix of a distance from the singular points: 0.25 -> ``0p25mm``."""
+    return f"{mm:g}".replace(".", "p") + "mm"
+
+
+def fmt_value(v: float | None, unit: str) -> str:
+    """A value in its unit for the ledger's tables and verdicts: stresses in kPa or MPa, ``-`` for none."""
+    if v is None:
+        return "-"
+    if unit == "Pa":
+        return f"{v / 1e3:.4g} kPa" if abs(v) < 1e6 else f"{v / 1e6:.4g} MPa"
+    return f"{v:.4g}" + (f" {unit}" if unit not in ("-", "") else "")
+
+
+def force_key(force: float) -> str:
+    """The key of a force (N) in a rung's values and in the analysis: 1.0 -> ``"1"``."""
+    return f"{force:g}"
+
+
+QUANTITIES = (
+    Quantity("usum_mm", "USUM", "mm"),
+    Quantity("seqv_pa", "SEQV (overall max, in the suture)", "Pa"),
+    Quantity("eptoeqv", "EPTOEQV (overall max)", "-"),
+    Quantity("regions.tissue.seqv_pa", "SEQV tissue (raw max)", "Pa"),
+    Quantity("regions.tissue.seqv_outside_rim_pa", "SEQV tissue outside rims", "Pa"),
+    Quantity("regions.tissue.eptoeqv_outside_rim", "EPTOEQV tissue outside rims", "-"),
+    *(Quantity(f"ledger.tissue_seqv_pa_beyond_{beyond(d)}", f"SEQV tissue > {d:g} mm from singular points", "Pa")
+      for d in SINGULAR_FREE_MM),
+    *(Quantity(f"ledger.tissue_eptoeqv_beyond_{beyond(d)}", f"EPTOEQV tissue > {d:g} mm from singular points", "-")
+      for d in SINGULAR_FREE_MM),
+)

@@ -14,8 +14,9 @@ from mpi4py import MPI
 
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
+from suture_fem.physics.constraints import FREE
 from suture_fem.physics.effects import HOLD_SKIPPED
-from suture_fem.physics.problem import FREE, build_physics
+from suture_fem.physics.problem import build_physics
 from suture_fem.pipeline import load_scene, run_scene
 from suture_fem.support import compat
 from tests.conftest import FAST

@@ -1,0 +1,157 @@
+"""Constraints: the Dirichlet conditions of a scene and which dofs SNES solves for.
+
+Outer epidermis surface: u = 0. Axis: u_r = 0. Everything else is traction-free. The mixed
+formulation pins the pressure unknowns that touch no tissue cell to 0, and a rigid suture is
+u = (0, d) on every suture dof (the interface included), written as boundary conditions so that
+everything that reads ``bcs`` sees which dofs are constrained.
+
+What SNES solves for is ``T x`` (:class:`Unknowns`): every dof that is not fixed by a boundary
+condition, except that with a rigid suture all of the suture's dofs are replaced by one axial motion d
+and its equation is the axial force balance of the suture (the solver's reduction updates d).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import dolfinx
+import dolfinx.fem
+import numpy as np
+from petsc4py import PETSc
+
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry import regions
+from suture_fem.support import compat
+
+#: Kinds of dof in :attr:`Unknowns.kind`: solved for, fixed at 0, or moving with the rigid suture's d.
+FREE, FIXED, RIGID = 0, 1, 2
+
+
+@dataclass
+class Unknowns:
+    """Which local dofs of the state SNES solves for: FREE ones, FIXED (= 0) ones, RIGID (= d) ones.
+
+    ``kind`` covers owned and ghost dofs of the state's space (unrolled); with a rigid suture the
+    axial dofs of every suture node are RIGID and its radial dofs FIXED.
+    """
+
+    kind: np.ndarray
+    n_owned: int
+    rigid: bool
+
+    def count(self, comm: Any) -> int:
+        """Global number of unknowns SNES solves for (free dofs, plus d with a rigid suture)."""
+        free = int(np.count_nonzero(self.kind[: self.n_owned] == FREE))
+        return comm.allreduce(free) + (1 if self.rigid else 0)
+
+    def count_rigid(self, comm: Any) -> int:
+        """Global number of dofs replaced by the rigid suture's motion d."""
+        return comm.allreduce(int(np.count_nonzero(self.kind[: self.n_owned] == RIGID)))
+
+
+def classify_dofs(W: Any, bcs: list[Any], rigid_bc: Any = None) -> Unknowns:
+    """Classify every local dof of W: FIXED by a (zero) boundary condition, RIGID or FREE.
+
+    RIGID dofs are those of ``rigid_bc`` (u_z = d on the rigid suture), which is also in ``bcs``.
+    """
+    im = W.dofmap.index_map
+    bs = W.dofmap.index_map_bs
+    kind = np.full((im.size_local + im.num_ghosts) * bs, FREE, dtype=np.int8)
+    for bc in bcs:
+        kind[bc.dof_indices()[0]] = FIXED
+    if rigid_bc is not None:
+        kind[rigid_bc.dof_indices()[0]] = RIGID
+    return Unknowns(kind=kind, n_owned=im.size_local * bs, rigid=rigid_bc is not None)
+
+
+def mark_dofs(W: Any, cells: Any, sub: Any | None = None) -> Any:
+    """Boolean mask over W's local dofs (owned and ghost): touched by any of the cells on any rank.
+
+    ``sub`` restricts to a subspace of W (its dofmap indexes W). The marks are summed onto the owners
+    and sent back to the ghosts, so a dof shared across ranks is marked everywhere.
+    """
+    space = W if sub is None else sub
+    carrier = dolfinx.fem.Function(W)
+    carrier.x.array[:] = 0.0
+    if len(cells):
+        dofs = space.dofmap.list.array.reshape(-1, space.dofmap.dof_layout.num_dofs)[cells]
+        bs = space.dofmap.bs
+        if bs > 1:  # a blocked dofmap lists nodes: unroll
+            dofs = (bs * dofs[:, :, None] + np.arange(bs)[None, None, :]).reshape(len(cells), -1)
+        carrier.x.array[np.unique(dofs)] = 1.0
+    compat.scatter_reverse_add(carrier.x)
+    carrier.x.scatter_forward()
+    return carrier.x.array > 0.5
+
+
+def supports(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[list[Any], np.ndarray]:
+    """The supports: u = 0 on the outer surface and u_r = 0 on the axis; and the outer surface's u_z dofs.
+
+    Conditions are set per component, so the same code serves the vector space and the mixed space's
+    displacement subspace ``W_u``. Returns (bcs, outer u_z dofs); the latter locate the reaction force.
+    """
+    mesh = tagged.mesh
+    fdim = mesh.topology.dim - 1
+    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
+    outer = meshmod.facets(tagged, regions.Facet.OUTER)
+    axis = meshmod.facets(tagged, regions.Facet.AXIS)
+    zero = PETSc.ScalarType(0.0)
+    bcs = [
+        dolfinx.fem.dirichletbc(zero, dolfinx.fem.locate_dofs_topological(W_u.sub(c), fdim, outer), W_u.sub(c))
+        for c in (0, 1)
+    ]
+    bcs.append(dolfinx.fem.dirichletbc(zero, dolfinx.fem.locate_dofs_topological(W_u.sub(0), fdim, axis), W_u.sub(0)))
+    outer_z = dolfinx.fem.locate_dofs_topological(W_u.sub(1), fdim, outer)
+    return bcs, np.asarray(outer_z, dtype=np.int32)
+
+
+def pinned_pressure(tagged: meshmod.TaggedMesh, W: Any) -> tuple[Any, dict[str, int]]:
+    """Mixed formulation: pressure unknowns that touch no tissue cell have no equation, so pin them to 0.
+
+    Returns the boundary condition and its counts (``pressure_dofs``, ``pressure_dofs_pinned_in_suture``)
+    for the ``effects`` record.
+    """
+    mesh = tagged.mesh
+    tissue_cells = meshmod.region_cells(tagged, regions.TISSUE)
+    in_tissue = mark_dofs(W, tissue_cells, W.sub(1))
+    p_all = mark_dofs(W, np.arange(mesh.topology.index_map(2).size_local, dtype=np.int32), W.sub(1))
+    pinned = np.flatnonzero(p_all & ~in_tissue).astype(np.int32)
+    bc = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), pinned, W.sub(1))
+    owned = W.dofmap.index_map.size_local
+    counts = {
+        "pressure_dofs": mesh.comm.allreduce(int(np.count_nonzero(p_all[:owned]))),
+        "pressure_dofs_pinned_in_suture": mesh.comm.allreduce(int(np.count_nonzero(pinned < owned))),
+    }
+    return bc, counts
+
+
+@dataclass
+class RigidConstraint:
+    """The rigid suture as boundary conditions: u_r = 0 and u_z = d on every suture dof.
+
+    Attributes:
+        displacement: the Constant d (m), updated by the solver's reduction.
+        radial: u_r = 0 on the suture's dofs; axial: u_z = d on them (its dofs become RIGID).
+    """
+
+    displacement: Any
+    radial: Any
+    axial: Any
+
+    @property
+    def bcs(self) -> list[Any]:
+        """The two conditions, radial first."""
+        return [self.radial, self.axial]
+
+
+def rigid_suture(tagged: meshmod.TaggedMesh, W: Any, W_u: Any) -> RigidConstraint:
+    """The rigid suture's constraint on every dof of a suture cell (the interface included)."""
+    displacement = dolfinx.fem.Constant(tagged.mesh, PETSc.ScalarType(0.0))
+    suture_cells = meshmod.region_cells(tagged, regions.SUTURE)
+    radial, axial = (np.flatnonzero(mark_dofs(W, suture_cells, W_u.sub(c))).astype(np.int32) for c in (0, 1))
+    return RigidConstraint(
+        displacement=displacement,
+        radial=dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), radial, W_u.sub(0)),
+        axial=dolfinx.fem.dirichletbc(displacement, axial, W_u.sub(1)),
+    )

@@ -1,0 +1,125 @@
+"""What a scene calls for, the cross-key rules of the effects, and the ``effects`` record of results.json.
+
+This module builds no form, so scene validation (:func:`check_scene`) needs neither UFL nor dolfinx.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from suture_fem.scene.model import Scene
+from suture_fem.support.errors import SceneError
+
+#: The output quantities a scene may request (``output.quantities``), in the order they are computed.
+QUANTITIES = ("usum", "seqv", "eptoeqv")
+#: Why the hold is not solved when nothing in the scene depends on the rate.
+HOLD_SKIPPED = (
+    "hold skipped: no rate-dependent effect in the scene (inertia off, every material rate-independent), "
+    "so the state at the end of the hold equals the state at the peak force"
+)
+
+
+@dataclass(frozen=True)
+class Effects:
+    """What a scene calls for (validated ``[effects]`` and ``output.quantities``)."""
+
+    inertia: bool = False
+    suture: str = "elastic"
+    incompressibility: str = "displacement"
+    gravity: bool = False
+    quantities: tuple[str, ...] = QUANTITIES
+    hold_s: float = 0.0
+
+    @classmethod
+    def from_scene(cls, scene: Scene) -> Effects:
+        """The effects of a scene (its ``[effects]``, ``output.quantities`` and ``loading.hold_s``)."""
+        e = scene.effects
+        return cls(
+            inertia=e.inertia,
+            suture=e.suture,
+            incompressibility=e.incompressibility,
+            gravity=e.gravity,
+            quantities=tuple(q for q in QUANTITIES if q in scene.output.quantities),
+            hold_s=scene.loading.hold_s,
+        )
+
+    @property
+    def rigid(self) -> bool:
+        """The suture is rigid (``effects.suture = "rigid"``)."""
+        return self.suture == "rigid"
+
+    @property
+    def mixed(self) -> bool:
+        """The tissue has a pressure field (``effects.incompressibility = "mixed"``)."""
+        return self.incompressibility == "mixed"
+
+    def record(self, notes: dict[str, Any] | None = None) -> dict[str, Any]:
+        """Each effect on or off, and for each one off or skipped the reason (JSON-ready).
+
+        Args:
+            notes: effect name (``inertia``, ``suture``, ``mixed``, ``gravity``) -> the numbers the
+                built problem reports for it (see ``Physics.notes``).
+        """
+        notes = notes or {}
+        return {
+            "inertia": self._inertia(notes),
+            "suture": self._suture(notes),
+            "incompressibility": self._incompressibility(notes),
+            "gravity": {"on": True, **notes.get("gravity", {})} if self.gravity else {
+                "on": False, "left_out": "effects.gravity = false: no body force"},
+            "hold": self._hold(),
+            "outputs": self._outputs(),
+        }
+
+    def _inertia(self, notes: dict[str, Any]) -> dict[str, Any]:
+        if self.inertia:
+            return {"on": True, **notes.get("inertia", {})}
+        return {"on": False, "left_out": "effects.inertia = false: quasi-static load ramp; no mass or "
+                "damping form is built, compiled or assembled"}
+
+    def _suture(self, notes: dict[str, Any]) -> dict[str, Any]:
+        if self.rigid:
+            return {"on": True, "treatment": "rigid", "left_out": "effects.suture = \"rigid\": no suture "
+                    "strain energy; the suture's unknowns are replaced by one rigid axial motion",
+                    **notes.get("suture", {})}
+        return {"on": True, "treatment": "elastic", **notes.get("suture", {})}
+
+    def _incompressibility(self, notes: dict[str, Any]) -> dict[str, Any]:
+        if self.mixed:
+            return {"on": True, "treatment": "mixed", "formulation":
+                    "Taylor-Hood P2 displacement / P1 pressure in the tissue", **notes.get("mixed", {})}
+        return {"on": True, "treatment": "displacement",
+                "left_out": "effects.incompressibility = \"displacement\": no pressure field"}
+
+    def _hold(self) -> dict[str, Any]:
+        if self.inertia and self.hold_s > 0:
+            return {"solved": True, "reason": "inertia on: the hold is integrated in time"}
+        if self.hold_s > 0:
+            return {"solved": False, "left_out": HOLD_SKIPPED}
+        return {"solved": False, "left_out": "loading.hold_s = 0: no hold"}
+
+    def _outputs(self) -> dict[str, Any]:
+        left = [q for q in QUANTITIES if q not in self.quantities]
+        rec: dict[str, Any] = {"computed": list(self.quantities),
+                               "left_out": {q: "not in output.quantities: never computed" for q in left}}
+        if not {"seqv", "eptoeqv"} & set(self.quantities):
+            rec["stress_strain_fields"] = "not compiled: neither seqv nor eptoeqv is requested"
+        return rec
+
+
+def check_scene(scene: Scene) -> None:
+    """Cross-key rules of the effects (run by scene validation, before any meshing)."""
+    e = scene.effects
+    if e.incompressibility == "mixed" and scene.mesh.degree < 2:
+        raise SceneError(
+            'scene key effects.incompressibility = "mixed" needs mesh.degree = 2 (Taylor-Hood P2/P1 is the stable '
+            "pair; P1/P0 and P1/P1 are not), got mesh.degree = 1"
+        )
+    if e.inertia and e.time_step_s > scene.loading.ramp_s + scene.loading.hold_s:
+        raise SceneError(
+            f"scene key effects.time_step_s = {e.time_step_s:g} must be <= loading.ramp_s + loading.hold_s"
+        )
+    quantities = scene.output.quantities
+    if not quantities:
+        raise SceneError("scene key output.quantities must name at least one of " + ", ".join(QUANTITIES))

@@ -12,23 +12,27 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from suture_fem import __version__
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry.section import Geometry
-from suture_fem.outputs.evaluate import FieldWriter, Outputs
+from suture_fem.outputs.evaluate import Outputs
+from suture_fem.outputs.fields import FieldWriter
+from suture_fem.outputs.results import Results
 from suture_fem.physics.effects import check_scene
 from suture_fem.physics.problem import build_physics
 from suture_fem.scene import Scene, parse_scene
-from suture_fem.solve.newton import Timings, ramp
-from suture_fem.support import compat
+from suture_fem.solve.records import Timings
+from suture_fem.solve.stepping import ramp
 from suture_fem.support.errors import SolveStopped
-from suture_fem.support.io import write_json
 from suture_fem.support.parallel import on_root
 
 log = logging.getLogger("suture_fem")
+
+#: ``on_report(force_n, outputs)``: called on every rank at each reported force.
+OnReport = Callable[[float, Outputs], None]
 
 
 def load_scene(source: str | Path | None = "paper", overrides: list[str] | None = None) -> Scene:
@@ -47,110 +51,111 @@ def check(scene: Scene) -> None:
     check_scene(scene)
 
 
-def run_scene(
-    scene: Scene,
-    out_dir: str | Path | None,
-    comm: Any,
-    on_report: Callable[[float, Any], None] | None = None,
-) -> dict[str, Any]:
-    """Solve a validated scene; write ``out_dir/results.json`` (rank 0) and return the results.
+def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: OnReport | None = None) -> Results:
+    """Solve a validated scene; write ``out_dir/results.json`` (rank 0) and return its :class:`Results`.
 
     ``on_report(force_n, outputs)``, if given, is called (on every rank) at each reported force with
     the Outputs of the solved state, for pictures: ``outputs.physics.u`` is the displacement and
     ``outputs.cell_maxima()`` the von Mises stress and equivalent strain per cell.
+    The Results read like results.json's dict (``results["usum_mm"]``); ``results.to_dict()`` is that dict.
     Raises SolveStopped after writing the converged part when the ramp cannot be completed.
     """
-    t_start = time.perf_counter()
+    clock = _Clock()
+    out = _output_folder(out_dir, comm)
+    outputs = _build(scene, comm, clock)
+    steps = LoadSteps(scene, outputs, out, clock, on_report)
+    try:
+        history = ramp(outputs.physics, scene, steps.converged, clock.timings)
+    except SolveStopped as stop:
+        steps.stopped(stop)
+        raise
+    finally:
+        steps.close()
+    steps.finished(history)
+    return steps.results
+
+
+@dataclass
+class _Clock:
+    """Wall time since the run began, the meshing time, and the solver's timings."""
+
+    start: float = field(default_factory=time.perf_counter)
+    meshing: float = 0.0
+    timings: Timings = field(default_factory=Timings)
+
+    def stamp(self) -> tuple[float, dict[str, float]]:
+        """(wall time so far, the ``timings_s`` record), s."""
+        return time.perf_counter() - self.start, {"meshing": round(self.meshing, 4), **self.timings.as_dict()}
+
+
+def _output_folder(out_dir: str | Path | None, comm: Any) -> Path | None:
+    """The output folder, created now: an unusable one stops every rank before the solve, not after."""
     out = Path(out_dir) if out_dir is not None else None
-    if out is not None:  # an unusable output folder stops every rank now, not after the solve
+    if out is not None:
         on_root(comm, f"creating the output folder {out}", out.mkdir, parents=True, exist_ok=True)
-    timings = Timings()
+    return out
+
+
+def _build(scene: Scene, comm: Any, clock: _Clock) -> Outputs:
+    """Mesh, physics and the outputs of the scene (the physics is ``outputs.physics``), timed."""
     t0 = time.perf_counter()
     tagged = meshmod.create_mesh(comm, scene.geometry, scene.mesh)
-    meshing = time.perf_counter() - t0
+    clock.meshing = time.perf_counter() - t0
     t0 = time.perf_counter()
     physics = build_physics(tagged, scene)
     outputs = Outputs(physics, scene.output, quantities=physics.effects.quantities)
-    timings.form_compilation += time.perf_counter() - t0
-    results: dict[str, Any] = {
-        "status": "running",
-        "suture_fem_version": __version__,
-        "dolfinx_version": compat.DOLFINX_VERSION,
-        "mpi_ranks": comm.size,
-        "dofs": physics.num_dofs(),
-        "unknowns": physics.num_unknowns(),
-        **meshmod.describe(tagged),
-        "applied_force_n": scene.loading.force_n,
-        "force_displacement": [[0.0, 0.0]],
-        "at_forces": [],
-        "effects": physics.effects_record(),
-        "scene": scene.as_dict(),
-    }
-    writer = FieldWriter(physics, outputs, str(out / "fields.xdmf")) if out and scene.output.fields else None
+    clock.timings.form_compilation += time.perf_counter() - t0
+    return outputs
 
-    def save() -> None:
-        results["wall_time_s"] = time.perf_counter() - t_start
-        results["timings_s"] = {"meshing": round(meshing, 4), **timings.as_dict()}
-        if out is not None:
-            on_root(comm, f"writing {out / 'results.json'}", write_json, out / "results.json", results)
 
-    def on_converged(force_n: float, report: bool, time_s: float | None = None) -> None:
-        results["force_displacement"].append([force_n, outputs.thread_end_displacement_mm()])
-        if time_s is not None:  # with inertia: [t (s), F (N), thread end displacement (mm)]
-            results.setdefault("time_history", []).append([time_s, *results["force_displacement"][-1]])
+class LoadSteps:
+    """What the run keeps of its load steps.
+
+    The results after every converged step, and at every reported force the outputs record, the
+    field files and ``on_report``; results.json is rewritten after each step and when the ramp ends
+    or stops.
+    """
+
+    def __init__(self, scene: Scene, outputs: Outputs, out: Path | None, clock: _Clock, on_report: OnReport | None):
+        self.outputs, self.clock, self.on_report = outputs, clock, on_report
+        self.comm = outputs.physics.comm
+        self.results = Results.start(scene, outputs.physics, self.comm)
+        self.path = out / "results.json" if out is not None else None
+        writes_fields = out is not None and scene.output.fields
+        self.writer = FieldWriter(outputs.physics, outputs, str(out / "fields.xdmf")) if writes_fields else None
+
+    def converged(self, force_n: float, report: bool, time_s: float | None = None) -> None:
+        """After every converged step of the ramp (``time_s``: with inertia, the time reached)."""
+        self.results.step(force_n, self.outputs.thread_end_displacement_mm(), time_s)
         if report:
-            record = outputs.evaluate()
-            results["at_forces"].append(record)
-            results.update({k: v for k, v in record.items() if k != "force_n"})
-            results["force_reached_n"] = force_n
-            if writer is not None:
-                writer.write(force_n)
-            if on_report is not None:
-                on_report(force_n, outputs)
-        save()
+            self.report(force_n)
+        self.save()
 
-    def bookkeeping(history: Any) -> None:
-        results.update(
-            {
-                "load_steps": len(history.steps),
-                "newton_iterations": history.newton_iterations,
-                "cutbacks": history.cutbacks,
-                "linear_solver": history.linear_solver,
-                "linear_solver_fallbacks": history.fallbacks,
-                "domain_rejections": history.domain_rejections,
-                "line_search_switches": history.line_search_switches,
-                "residual_floor_n": history.residual_floor_n,
-                "solves_at_residual_floor": history.floor_above_atol,
-            }
-        )
+    def report(self, force_n: float) -> None:
+        """The outputs of the current state at a reported force (collective)."""
+        self.results.report(force_n, self.outputs.evaluate())
+        if self.writer is not None:
+            self.writer.write(force_n)
+        if self.on_report is not None:
+            self.on_report(force_n, self.outputs)
 
-    try:
-        history = ramp(physics, scene, on_converged, timings)
-    except SolveStopped as stop:
-        if stop.history is not None:
-            bookkeeping(stop.history)
-        results["status"] = "stopped"
-        results["diagnosis"] = {
-            "cause": stop.cause,
-            "load_reached_n": stop.load_reached,
-            "attempted_n": stop.attempted,
-            "detail": stop.detail,
-        }
-        if stop.load_reached > 0 and (not results["at_forces"] or results["at_forces"][-1]["force_n"] < stop.load_reached):
-            record = outputs.evaluate()  # the last converged state, so its fields are not lost
-            results["at_forces"].append(record)
-            results.update({k: v for k, v in record.items() if k != "force_n"})
-            results["force_reached_n"] = stop.load_reached
-            if writer is not None:
-                writer.write(stop.load_reached)
-            if on_report is not None:
-                on_report(stop.load_reached, outputs)
-        save()
-        raise
-    finally:
-        if writer is not None:
-            writer.close()
-    bookkeeping(history)
-    results["status"] = "converged"
-    save()
-    return results
+    def stopped(self, stop: SolveStopped) -> None:
+        """The ramp stopped: the diagnosis, and the last converged state's outputs so they are not lost."""
+        self.results.stop(stop)
+        if self.results.needs_report(stop.load_reached):
+            self.report(stop.load_reached)
+        self.save()
+
+    def finished(self, history: Any) -> None:
+        """The ramp reached the full load."""
+        self.results.finish(history)
+        self.save()
+
+    def save(self) -> None:
+        """Stamp the times and rewrite results.json (rank 0, atomically)."""
+        self.results.write(self.path, self.comm, *self.clock.stamp())
+
+    def close(self) -> None:
+        """Close the field file, if any (collective)."""
+        if self.writer is not None:
+            self.writer.close()

@@ -1,0 +1,48 @@
+"""The reaction of the fixed outer surface and the residual left at the free degrees of freedom.
+
+Both come from one assembly of the residual without boundary conditions: at the fixed outer-surface
+dofs it is the axial force of the fixed surface on the tissue (at equilibrium minus the applied
+force); at the unconstrained dofs it is what equilibrium leaves over, which bounds the force balance
+error.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import dolfinx.fem.petsc
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from suture_fem.outputs.base import Quantity, State
+
+
+class Reaction(Quantity):
+    """``reaction_force_n``, ``free_residual_norm_n`` (N) and ``force_balance_rel`` = |reaction + F| / F."""
+
+    def forces(self) -> tuple[float, float]:
+        """(axial force of the fixed outer surface on the body, residual norm at the free dofs), N (collective)."""
+        physics = self.setup.physics
+        b = dolfinx.fem.petsc.assemble_vector(physics.form("residual"))
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        n_owned = b.getLocalSize()
+        owned = physics.outer_z_dofs[physics.outer_z_dofs < n_owned]
+        local = float(np.sum(b.array[owned]))
+        free = np.ones(n_owned, dtype=bool)
+        for bc in physics.bcs:
+            fixed = bc.dof_indices()[0]
+            free[fixed[fixed < n_owned]] = False
+        local_sq = float(np.sum(b.array[free] ** 2))
+        b.destroy()
+        comm = physics.comm
+        return comm.allreduce(local, op=MPI.SUM), float(np.sqrt(comm.allreduce(local_sq, op=MPI.SUM)))
+
+    def totals(self, state: State) -> dict[str, Any]:
+        """The reaction, the free residual norm and the relative force balance (collective)."""
+        reaction, free_norm = self.forces()
+        return {
+            "reaction_force_n": reaction,
+            "free_residual_norm_n": free_norm,
+            "force_balance_rel": abs(reaction + state.force_n) / max(state.force_n, 1e-300),
+        }

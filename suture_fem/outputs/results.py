@@ -1,0 +1,194 @@
+"""The results of one run, typed, and their JSON form (``results.json``).
+
+:class:`Results` is built once per run and filled as the load ramp goes: after every converged step
+(:meth:`Results.step`), at every reported force (:meth:`Results.report`), and when the ramp ends
+(:meth:`Results.finish`) or stops (:meth:`Results.stop`). :meth:`Results.to_dict` is the JSON form,
+which repeats the last report's entries at top level; a Results also reads like that dict
+(``results["usum_mm"]``, ``results.get("at_forces")``, ``"seqv_pa" in results``), read-only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from suture_fem import __version__
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.physics.problem import Physics
+from suture_fem.scene import Scene
+from suture_fem.support import compat
+from suture_fem.support.errors import SolveStopped
+from suture_fem.support.io import write_json
+from suture_fem.support.parallel import on_root
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Why a load ramp stopped.
+
+    The cause ("cutbacks", "domain", "linear_solver", ...), the last converged force, the force of
+    the failed attempt (N) and a human-readable detail.
+    """
+
+    cause: str
+    load_reached_n: float
+    attempted_n: float
+    detail: str
+
+    @classmethod
+    def from_stop(cls, stop: SolveStopped) -> Diagnosis:
+        """The diagnosis a SolveStopped carries."""
+        return cls(stop.cause, stop.load_reached, stop.attempted, stop.detail)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON form (``results.json``'s ``diagnosis``)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class SolverRecord:
+    """The solver's bookkeeping of a load ramp (from its history), as written to results.json."""
+
+    load_steps: int
+    newton_iterations: int
+    cutbacks: int
+    linear_solver: str
+    linear_solver_fallbacks: list[str]
+    domain_rejections: int
+    line_search_switches: int
+    residual_floor_n: float
+    solves_at_residual_floor: int
+
+    @classmethod
+    def from_history(cls, history: Any) -> SolverRecord:
+        """From the ramp's history (its RampResult, complete or up to a stop)."""
+        return cls(
+            load_steps=len(history.steps),
+            newton_iterations=history.newton_iterations,
+            cutbacks=history.cutbacks,
+            linear_solver=history.linear_solver,
+            linear_solver_fallbacks=history.fallbacks,
+            domain_rejections=history.domain_rejections,
+            line_search_switches=history.line_search_switches,
+            residual_floor_n=history.residual_floor_n,
+            solves_at_residual_floor=history.floor_above_atol,
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON form (top-level keys of results.json)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(eq=False)
+class Results(Mapping):
+    """What one run computed; ``status`` is "running", "converged" or "stopped".
+
+    Attributes:
+        run: versions, MPI ranks, degrees of freedom, unknowns, the mesh's cells and sizes, the
+            geometry and the applied force.
+        effects: what each effect built (``Physics.effects_record``).
+        scene: the scene solved (``Scene.as_dict``).
+        force_displacement: [F (N), thread end displacement (mm)] after every converged step, from [0, 0].
+        time_history: with inertia, [t (s), F (N), thread end displacement (mm)] after every step.
+        at_forces: the outputs record at every reported force.
+        latest: the reports' entries but ``force_n``, merged in order (so the last report's values).
+        force_reached_n: the force of the last report.
+        wall_time_s, timings_s: stamped at every write.
+        solver: the solver's bookkeeping, once the ramp ended or stopped.
+        diagnosis: why the ramp stopped.
+    """
+
+    run: dict[str, Any]
+    effects: dict[str, Any]
+    scene: dict[str, Any]
+    status: str = "running"
+    force_displacement: list[list[float]] = field(default_factory=lambda: [[0.0, 0.0]])
+    time_history: list[list[float]] | None = None
+    at_forces: list[dict[str, Any]] = field(default_factory=list)
+    latest: dict[str, Any] = field(default_factory=dict)
+    force_reached_n: float | None = None
+    wall_time_s: float | None = None
+    timings_s: dict[str, float] | None = None
+    solver: SolverRecord | None = None
+    diagnosis: Diagnosis | None = None
+
+    @classmethod
+    def start(cls, scene: Scene, physics: Physics, comm: Any) -> Results:
+        """A running run's results: its metadata, nothing solved yet (collective: counts the cells)."""
+        run = {
+            "suture_fem_version": __version__,
+            "dolfinx_version": compat.DOLFINX_VERSION,
+            "mpi_ranks": comm.size,
+            "dofs": physics.num_dofs(),
+            "unknowns": physics.num_unknowns(),
+            **meshmod.describe(physics.tagged),
+            "applied_force_n": scene.loading.force_n,
+        }
+        return cls(run=run, effects=physics.effects_record(), scene=scene.as_dict())
+
+    def step(self, force_n: float, thread_end_mm: float, time_s: float | None = None) -> None:
+        """A converged load step: its point of the force-displacement curve (and of the time history)."""
+        self.force_displacement.append([force_n, thread_end_mm])
+        if time_s is not None:  # with inertia
+            if self.time_history is None:
+                self.time_history = []
+            self.time_history.append([time_s, force_n, thread_end_mm])
+
+    def report(self, force_n: float, record: dict[str, Any]) -> None:
+        """The outputs record of a reported force."""
+        self.at_forces.append(record)
+        self.latest.update({k: v for k, v in record.items() if k != "force_n"})
+        self.force_reached_n = force_n
+
+    def needs_report(self, load_reached_n: float) -> bool:
+        """Whether the last converged force of a stopped ramp still lacks its outputs record."""
+        return load_reached_n > 0 and (not self.at_forces or self.at_forces[-1]["force_n"] < load_reached_n)
+
+    def finish(self, history: Any) -> None:
+        """The ramp reached the full load."""
+        self.solver = SolverRecord.from_history(history)
+        self.status = "converged"
+
+    def stop(self, stop: SolveStopped) -> None:
+        """The ramp stopped: its diagnosis, and the solver's bookkeeping when known."""
+        if stop.history is not None:
+            self.solver = SolverRecord.from_history(stop.history)
+        self.status = "stopped"
+        self.diagnosis = Diagnosis.from_stop(stop)
+
+    def write(self, path: Path | None, comm: Any, wall_time_s: float, timings_s: dict[str, float]) -> None:
+        """Stamp the times; with a path, write the JSON form there atomically (rank 0)."""
+        self.wall_time_s, self.timings_s = wall_time_s, timings_s
+        if path is not None:
+            on_root(comm, f"writing {path}", write_json, path, self.to_dict())
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form: the keys and values of results.json."""
+        out: dict[str, Any] = {"status": self.status, **self.run, "force_displacement": self.force_displacement,
+                               "at_forces": self.at_forces, "effects": self.effects, "scene": self.scene}
+        if self.time_history is not None:
+            out["time_history"] = self.time_history
+        if self.wall_time_s is not None:
+            out["wall_time_s"], out["timings_s"] = self.wall_time_s, self.timings_s
+        out.update(self.latest)
+        if self.force_reached_n is not None:
+            out["force_reached_n"] = self.force_reached_n
+        if self.solver is not None:
+            out.update(self.solver.as_dict())
+        if self.diagnosis is not None:
+            out["diagnosis"] = self.diagnosis.as_dict()
+        return out
+
+    def __getitem__(self, key: str) -> Any:
+        """The JSON form's entry (KeyError where it has none)."""
+        return self.to_dict()[key]
+
+    def __iter__(self) -> Iterator[str]:
+        """The JSON form's keys."""
+        return iter(self.to_dict())
+
+    def __len__(self) -> int:
+        """The JSON form's number of keys."""
+        return len(self.to_dict())

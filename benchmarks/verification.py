@@ -23,7 +23,8 @@ sys.path.insert(0, str(ROOT))
 from mpi4py import MPI  # noqa: E402
 
 from suture_fem.physics.materials import Gent, StVenantKirchhoff, Yeoh  # noqa: E402
-from suture_fem.studies.verification import manufactured_solve, observed_rates, tube_solve  # noqa: E402
+from suture_fem.studies.verification.manufactured import manufactured_solve, observed_rates  # noqa: E402
+from suture_fem.studies.verification.tube import tube_solve  # noqa: E402
 from suture_fem.support.io import write_json  # noqa: E402
 from tests.verification.test_manufactured import L, exact  # noqa: E402
 from tests.verification.test_tube_shear import HEIGHT, case  # noqa: E402

@@ -9,12 +9,27 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from enum import Enum
 from typing import Any
 
 import ufl
 
 from suture_fem.scene.model import MaterialSpec
 from suture_fem.support.errors import SceneError
+
+
+class Limit(Enum):
+    """A quantity that must stay > 0 for a material's energy to be defined: the keys of ``limits()``."""
+
+    #: J = det F (every material: an inverted element has no energy)
+    J = "J"
+    #: Jm - (I1bar - 3), Gent's distance to its locking limit
+    GENT_MARGIN = "Gent limit Jm - (I1bar - 3)"
+
+    @property
+    def label(self) -> str:
+        """The quantity as written in logs and diagnoses."""
+        return self.value
 
 
 def invariants(F: Any) -> tuple[Any, Any]:
@@ -61,9 +76,9 @@ class Yeoh:
     def bulk_modulus(self) -> float:
         return 2.0 * (self.inv_d[0] if self.inv_d else 0.0)
 
-    def limits(self, F: Any) -> dict[str, Any]:
-        """Named UFL expressions that must stay > 0 for the energy to be defined."""
-        return {"J": ufl.det(F)}
+    def limits(self, F: Any) -> dict[Limit, Any]:
+        """UFL expressions that must stay > 0 for the energy to be defined, by quantity."""
+        return {Limit.J: ufl.det(F)}
 
 
 @dataclass(frozen=True)
@@ -101,9 +116,10 @@ class Gent:
     def bulk_modulus(self) -> float:
         return 2.0 * self.inv_d
 
-    def limits(self, F: Any) -> dict[str, Any]:
+    def limits(self, F: Any) -> dict[Limit, Any]:
+        """UFL expressions that must stay > 0 for the energy to be defined: J and Jm - (I1bar - 3)."""
         J, i1 = invariants(F)
-        return {"J": J, "Gent limit Jm - (I1bar - 3)": self.jm - (i1 - 3)}
+        return {Limit.J: J, Limit.GENT_MARGIN: self.jm - (i1 - 3)}
 
 
 @dataclass(frozen=True)
@@ -138,8 +154,9 @@ class StVenantKirchhoff:
     def bulk_modulus(self) -> float:
         return self.young / (3 * (1 - 2 * self.poisson))
 
-    def limits(self, F: Any) -> dict[str, Any]:
-        return {"J": ufl.det(F)}
+    def limits(self, F: Any) -> dict[Limit, Any]:
+        """UFL expressions that must stay > 0 for the energy to be defined: J."""
+        return {Limit.J: ufl.det(F)}
 
 
 Material = Yeoh | Gent | StVenantKirchhoff

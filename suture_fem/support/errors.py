@@ -1,4 +1,27 @@
-"""Exceptions with the exit codes the command line maps them to."""
+"""Exceptions with the exit codes the command line maps them to, and the typed cause of a stopped solve."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+from typing import Any
+
+
+class StopCause(StrEnum):
+    """Why a load path stopped: the ``diagnosis.cause`` of results.json.
+
+    A ``str`` enum: a member equals (and serialises to JSON as) its value, so results.json reads the
+    same and a comparison with the plain string still holds.
+    """
+
+    #: a converged state reached ``solver.gent_limit_fraction`` of Gent's locking limit (or trial
+    #: states kept crossing the limit itself)
+    GENT_LIMIT = "gent_limit"
+    #: trial states kept inverting elements (J <= 0)
+    INVERTED_ELEMENT = "inverted_element"
+    #: Newton did not converge although every trial state was admissible
+    NEWTON_DIVERGENCE = "newton_divergence"
+    #: the direct linear solver failed (and no fallback was left)
+    LINEAR_SOLVER = "linear_solver"
 
 
 class SutureFemError(Exception):
@@ -17,23 +40,26 @@ class SolveStopped(SutureFemError, RuntimeError):
     """The load ramp could not be completed; carries the diagnosis (exit code 3).
 
     Attributes:
-        cause: short machine-readable cause ("cutbacks", "domain", "linear_solver", ...).
+        cause: why (:class:`StopCause`; equal to its string value, e.g. "gent_limit").
         load_reached: last converged force (N).
         attempted: force of the failed attempt (N).
         detail: human-readable diagnosis (region, quantity that hit its limit).
+        history: the solver's RampResult up to the stop, when known.
     """
 
     exit_code = 3
 
-    def __init__(self, cause: str, load_reached: float, attempted: float, detail: str):
+    def __init__(self, cause: StopCause, load_reached: float, attempted: float, detail: str):
+        """Store the diagnosis; the message names the cause, the forces and the detail."""
         self.cause, self.load_reached, self.attempted, self.detail = cause, load_reached, attempted, detail
-        self.history = None  # the solver's RampResult up to the stop, when known
+        self.history: Any = None
         super().__init__(
             f"solve stopped ({cause}) at {attempted:.6g} N; last converged load {load_reached:.6g} N: {detail}"
         )
 
     @classmethod
-    def with_history(cls, history, **kwargs) -> "SolveStopped":
+    def with_history(cls, history: Any, **kwargs: Any) -> SolveStopped:
+        """A SolveStopped that also carries the solver's history up to the stop."""
         stop = cls(**kwargs)
         stop.history = history
         return stop

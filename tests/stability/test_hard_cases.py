@@ -76,9 +76,11 @@ def test_outside_domain_residual_is_finite_and_names_the_violation():
     from mpi4py import MPI
 
     from suture_fem.geometry import mesh as meshmod
+    from suture_fem.physics.materials import Limit
     from suture_fem.physics.problem import build_physics
     from suture_fem.pipeline import load_scene
-    from suture_fem.solve.newton import OUTSIDE_DOMAIN_RESIDUAL, NewtonSolver, Timings
+    from suture_fem.solve.newton import OUTSIDE_DOMAIN_RESIDUAL, NewtonSolver
+    from suture_fem.solve.records import Timings
     from suture_fem.support import compat
 
     scene = load_scene("paper", FAST)
@@ -94,7 +96,7 @@ def test_outside_domain_residual_is_finite_and_names_the_violation():
         newton.reduction.restrict(compat.function_vector(physics.state), x)
         newton._residual(newton.snes, x, b)
         assert np.all(b.array == OUTSIDE_DOMAIN_RESIDUAL) and np.all(np.isfinite(b.array))
-        assert newton.last_violation["quantity"] == "J" and newton.last_violation["value"] < 0
+        assert newton.last_violation.quantity is Limit.J and newton.last_violation.value < 0
         x.set(0.0)  # the undeformed state is admissible: an ordinary residual (the pull is 0 here)
         newton._residual(newton.snes, x, b)
         assert np.all(np.isfinite(b.array)) and b.norm() < 1e-12
@@ -162,7 +164,9 @@ def test_newton_stops_at_the_round_off_floor_instead_of_stagnating_below_it():
     from suture_fem.geometry import mesh as meshmod
     from suture_fem.physics.problem import build_physics
     from suture_fem.pipeline import load_scene
-    from suture_fem.solve.newton import NewtonSolver, Timings, ramp
+    from suture_fem.solve.newton import NewtonSolver
+    from suture_fem.solve.records import Timings
+    from suture_fem.solve.stepping import ramp
     from suture_fem.support import compat
 
     scene = load_scene("paper", FAST + ["loading.report_forces_n=[]", "solver.atol=1e-14"])

@@ -3,7 +3,7 @@
 The exact field (on the square [0, L]^2, the axis included) is smooth as a 3D field of revolution
 (u_r odd, u_z even in r), non-polynomial in both coordinates, with strains of 5-20 % (J from about 0.8
 to 1.3), so every term of each energy is exercised in its nonlinear range. The body force is the
-symbolic strong-form residual -Div P(u*) with the hoop terms (suture_fem.verification).
+symbolic strong-form residual -Div P(u*) with the hoop terms (suture_fem.studies.verification.manufactured).
 
 Rates are those of the finest pair of meshes. For a smooth solution the error behaves like
 C h^p (1 + D h + ...), so the rate of the pair (h, h/2) differs from p by about D h / (2 ln 2): the
@@ -30,7 +30,7 @@ import pytest
 from mpi4py import MPI
 
 from suture_fem.physics.materials import Gent, StVenantKirchhoff, Yeoh
-from suture_fem.studies.verification import manufactured_solve, observed_rates
+from suture_fem.studies.verification.manufactured import manufactured_solve, observed_rates
 
 L = 1e-3  # m
 

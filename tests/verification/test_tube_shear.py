@@ -24,7 +24,7 @@ import pytest
 from mpi4py import MPI
 
 from suture_fem.physics.materials import Gent, Yeoh
-from suture_fem.studies.verification import TubeShear, shear_stress, tube_solve
+from suture_fem.studies.verification.tube import TubeShear, shear_stress, tube_solve
 
 MM = 1e-3
 A = 0.125 * MM  # core radius = the thread's

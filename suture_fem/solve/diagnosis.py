@@ -1,0 +1,47 @@
+"""Why a Newton solve failed and why a load path stopped: the cause and the human-readable text.
+
+The cause (:class:`~suture_fem.support.errors.StopCause`, written to results.json as
+``diagnosis.cause``) is decided on typed values: the guard's last
+:class:`~suture_fem.solve.guard.Violation` and its :class:`~suture_fem.physics.materials.Limit`, and
+whether the linear solver failed. The text names what happened, where (region, r and z in mm) and
+with which value; it is logged at every cutback and becomes ``diagnosis.detail`` when the path stops.
+"""
+
+from __future__ import annotations
+
+from suture_fem.physics.materials import Limit
+from suture_fem.solve.newton import NewtonSolver
+from suture_fem.support.errors import StopCause
+
+#: The reason the stepping gives a solve that converged to a state past ``solver.gent_limit_fraction``.
+PHYSICAL_LIMIT = "physical_limit"
+
+#: What a violated limit means, as the failure text says it.
+_VIOLATED = {Limit.J: "J <= 0", Limit.GENT_MARGIN: "Gent limit I1bar - 3 >= Jm"}
+
+
+def stop_cause(newton: NewtonSolver) -> StopCause:
+    """The cause of the last failed solve: a violated limit first, then the linear solver, else divergence."""
+    v = newton.last_violation
+    if v is not None:
+        return StopCause.GENT_LIMIT if v.quantity is Limit.GENT_MARGIN else StopCause.INVERTED_ELEMENT
+    if newton.linear_failure():
+        return StopCause.LINEAR_SOLVER
+    return StopCause.NEWTON_DIVERGENCE
+
+
+def failure_text(newton: NewtonSolver, reason: str, its: int) -> str:
+    """What went wrong in the last solve (its SNES reason or :data:`PHYSICAL_LIMIT`, after ``its`` iterations)."""
+    v = newton.last_violation
+    if reason == PHYSICAL_LIMIT and v is not None:
+        return (f"converged in {its} iterations, but the Gent limit is reached in the {v.region} at "
+                f"r = {v.r_mm:.3f} mm, z = {v.z_mm:.3f} mm: {v.limit}")
+    text = f"SNES {reason} after {its} iterations"
+    if v is not None:
+        text += (
+            f"; trial states left the admissible domain {newton.outside_domain} times ({_VIOLATED[v.quantity]} in "
+            f"the {v.region} at r = {v.r_mm:.3f} mm, z = {v.z_mm:.3f} mm, value {v.value:.3g})"
+        )
+    if newton.linear_failure():
+        text += f"; linear solver {newton.linear_solver} failed"
+    return text

@@ -1,0 +1,202 @@
+"""Adaptive stepping along the scene's load path (:mod:`suture_fem.solve.paths`), one Newton solve per step.
+
+* Adaptive load stepping. A step grows (by ``solver.grow``, up to ``solver.max_step``) when Newton
+  converges in at most ``solver.easy_iterations`` iterations, and is halved and retried from the last
+  converged state when it fails; below ``solver.min_step`` the run stops with a
+  :class:`~suture_fem.support.errors.SolveStopped` diagnosis that names the cause
+  (:mod:`suture_fem.solve.diagnosis`). Report points are always hit exactly.
+* Linear predictor. Each trial starts from the extrapolation of the last two converged states (when
+  that is admissible; else from the last one).
+* Physical limit. A converged state is checked against ``solver.gent_limit_fraction``
+  (:meth:`~suture_fem.solve.guard.DomainGuard.limit_reached`) and rejected like a failed step there.
+* Fallbacks before a cutback. A failed solve first switches the linear solver, if the factorisation
+  failed, then retries once with the other line search (:mod:`suture_fem.solve.newton`); only then is
+  the step cut.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import Any
+
+from petsc4py import PETSc
+
+from suture_fem.physics.problem import Physics
+from suture_fem.scene.model import Scene
+from suture_fem.solve.diagnosis import PHYSICAL_LIMIT, failure_text, stop_cause
+from suture_fem.solve.newton import PETSC_ERROR, NewtonSolver
+from suture_fem.solve.paths import GravityPreload, LoadRamp, Path, TimeHistory
+from suture_fem.solve.records import RampResult, StepRecord, Timings
+from suture_fem.support import compat
+from suture_fem.support.errors import SolveStopped
+
+log = logging.getLogger("suture_fem")
+
+
+def ramp(
+    physics: Physics,
+    scene: Scene,
+    on_converged: Callable[..., None],
+    timings: Timings | None = None,
+) -> RampResult:
+    """Follow the scene's load path: gravity preload (if called), then the load ramp or the time history.
+
+    ``on_converged(force_n, is_report_point)`` is called after every converged step of the pull
+    (with inertia also ``time_s=t``); report points (``loading.report_forces_n``, the peak and, with
+    inertia, the end of the hold) are always hit exactly.
+    Raises SolveStopped (with every converged step already handed to on_converged) when it cannot go on.
+    """
+    result = RampResult(timings=timings or Timings())
+    newton = NewtonSolver(physics, scene.solver, result.timings)
+    result.linear_solver = newton.linear_solver
+    result.unknowns = newton.reduction.n_global
+    fraction = scene.solver.gent_limit_fraction
+    try:
+        if physics.gravity_factor is not None:
+            _Stepper(GravityPreload(physics, scene), newton, result, on_converged, fraction).run()
+        main = TimeHistory(physics, scene) if physics.dynamics is not None else LoadRamp(physics, scene)
+        if physics.dynamics is not None:
+            physics.dynamics.start_from(physics.state)
+        _Stepper(main, newton, result, on_converged, fraction).run()
+    finally:
+        newton.destroy()
+    return result
+
+
+class _Stepper:
+    """Adaptive stepping along one path, with cutback and retry, linear predictor and solver fallback."""
+
+    def __init__(self, path: Path, newton: NewtonSolver, result: RampResult, on_converged: Callable[..., None],
+                 fraction: float):
+        self.path, self.newton, self.result, self.on_converged, self.fraction = (
+            path, newton, result, on_converged, fraction)
+        self.physics = newton.physics
+        self.eps = 1e-12 * path.end
+        self.u_vec = compat.function_vector(self.physics.state)
+        self.last = self.u_vec.copy()  # the last converged state
+        self.previous: Any = None  # state before `last`, for the linear predictor
+        self.s, self.prev_step, self.step = 0.0, 0.0, path.initial
+        self.retried = False  # this step already retried with the other line search
+
+    def run(self) -> None:
+        """Step from s = 0 to the path's end (raises SolveStopped when the step falls below its minimum)."""
+        try:
+            while self.s < self.path.end - self.eps:
+                trial = self._next_trial()
+                self._predict(trial)
+                self.path.apply(self.s, trial)
+                ok, its, reason = self._solve()
+                if ok:
+                    self._accept(trial, its)
+                else:
+                    self._reject(trial, its, reason)
+        finally:
+            self._set_state(self.last)  # never leave a diverged state behind, nor the loads of a failed trial
+            self.path.restore(self.s)
+            for vec in (self.last, self.previous):
+                if vec is not None:
+                    vec.destroy()
+
+    def _set_state(self, vec: Any) -> None:
+        vec.copy(self.u_vec)
+        self.u_vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self.physics.sync()
+
+    def _next_trial(self) -> float:
+        """S + step, clipped to the next target (and snapped to it when less than a minimum step would remain)."""
+        path = self.path
+        target = next(t for t in path.targets if t > self.s + self.eps)
+        trial = min(self.s + self.step, target)
+        return target if target - trial < path.min_step else trial
+
+    def _predict(self, trial: float) -> None:
+        """Linear predictor from the last two converged states, kept only if it is admissible."""
+        if self.previous is None or self.prev_step <= 0:
+            return
+        self.u_vec.axpy((trial - self.s) / self.prev_step, self.last - self.previous)
+        self.u_vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self.physics.sync()
+        if not self.newton.guard.admissible():
+            self.last.copy(self.u_vec)
+            self.physics.sync()
+
+    def _solve(self) -> tuple[bool, int, str]:
+        """One Newton solve, counted; a converged state past the Gent limit fraction counts as failed."""
+        newton, result = self.newton, self.result
+        ok, its, reason = newton.solve()
+        result.newton_iterations += its
+        result.domain_rejections += newton.outside_domain
+        if newton.floor > newton.options.atol:
+            if result.floor_above_atol == 0:
+                log.info("the residual's round-off floor %.2e N is above solver.atol %.2e N: Newton stops at the "
+                         "floor (recorded as residual_floor_n)", newton.floor, newton.options.atol)
+            result.floor_above_atol += 1
+        result.residual_floor_n = max(result.residual_floor_n, newton.floor)
+        if ok and self.fraction < 1.0:
+            limit = newton.guard.limit_reached(self.fraction)
+            if limit is not None:
+                ok, reason = False, PHYSICAL_LIMIT
+                newton.last_violation = limit
+        return ok, its, reason
+
+    def _accept(self, trial: float, its: int) -> None:
+        """Keep the converged state, report it, and grow the step after an easy solve."""
+        path, result = self.path, self.result
+        if self.previous is None:
+            self.previous = self.last.copy()
+        else:
+            self.last.copy(self.previous)
+        self.u_vec.copy(self.last)
+        self.prev_step = trial - self.s
+        s_old, self.s = self.s, trial
+        s = self.s
+        hit = any(abs(s - t) <= self.eps for t in path.targets)
+        if path.reports:
+            result.steps.append(StepRecord(path.force(s), its, self.prev_step, path.time(s)))
+        log.info("step %3d  %s  Newton its %2d  |R| %.2e  cutbacks %d", len(result.steps), path.describe(s),
+                 its, self.newton.residual_norm(), result.cutbacks)
+        if path.reports:
+            path.before_report(s)
+            t = path.time(s)
+            self.on_converged(path.force(s), hit) if t is None else self.on_converged(path.force(s), hit, time_s=t)
+        path.accept(s_old, s)
+        if its <= self.newton.options.easy_iterations:
+            self.step = min(self.step * path.grow, path.max_step)
+        self.retried = False
+
+    def _reject(self, trial: float, its: int, reason: str) -> None:
+        """Back to the last converged state; then the next linear solver, the other line search, or a cutback."""
+        self._set_state(self.last)
+        newton, result = self.newton, self.result
+        if newton.linear_failure() or reason == PETSC_ERROR:
+            fallback = newton.next_linear_solver()
+            if fallback is not None:
+                result.fallbacks.append(fallback)
+                result.linear_solver = fallback
+                return
+        if reason != PHYSICAL_LIMIT and not self.retried:
+            self.retried = True
+            result.line_search_switches += 1
+            log.info("Newton failed at %s (%s); retrying with the %s line search", self.path.describe(trial),
+                     reason, newton.other_line_search())
+            return
+        self._cut(trial, its, reason)
+
+    def _cut(self, trial: float, its: int, reason: str) -> None:
+        """Halve the step; below the path's minimum, stop with the diagnosis."""
+        path, result = self.path, self.result
+        self.retried = False
+        result.cutbacks += 1
+        self.step = 0.5 * (trial - self.s)
+        why = failure_text(self.newton, reason, its)
+        log.warning("step to %s failed (%s); cutting the step to %.3g", path.describe(trial), why, self.step)
+        if self.step < path.min_step:
+            raise SolveStopped.with_history(
+                result,
+                cause=stop_cause(self.newton),
+                load_reached=path.force(self.s),
+                attempted=path.force(trial),
+                detail=f"{path.label} step fell below its minimum {path.min_step:g} after {result.cutbacks} "
+                f"cutbacks; last failure: {why}",
+            )

@@ -23,8 +23,8 @@ from suture_fem.support.logging import setup_logging
 
 #: Modules that add a subcommand: each has ``register(subparsers, scene_args)``, which adds its
 #: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
-COMMAND_MODULES: tuple[str, ...] = ("suture_fem.studies.sweep", "suture_fem.studies.convergence",
-                                     "suture_fem.studies.reproduce", "suture_fem.studies.maxload")
+COMMAND_MODULES: tuple[str, ...] = ("suture_fem.cli.sweep", "suture_fem.cli.convergence",
+                                     "suture_fem.cli.reproduce", "suture_fem.cli.maxload")
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:
@@ -44,7 +44,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="output folder (default: results/<scene name>)")
     p.add_argument("--fields", action="store_true", help="also write XDMF fields (same as --set output.fields=true)")
     p.add_argument("--error-estimate", action="store_true",
-                   help="solve once more one refinement coarser and attach 'USUM = x mm +- y' (see convergence.py)")
+                   help="solve once more one refinement coarser and attach 'USUM = x mm +- y' "
+                   "(see suture_fem/studies/convergence/estimate.py)")
 
     p = sub.add_parser("mesh", help="write a scene's mesh as a gmsh .msh file (mm) with a JSON record")
     _scene_args(p)
@@ -121,9 +122,9 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
         out = Path(args.out or f"results/{_scene_name(args.scene)}")
         results = run_scene(scene, out, comm)
         if args.error_estimate:
-            from suture_fem.studies.convergence import attach_error_estimate
+            from suture_fem.studies.convergence.estimate import attach_error_estimate
 
-            attach_error_estimate(scene, results, comm, out)
+            results = attach_error_estimate(scene, results, comm, out)
         if comm.rank == 0:
             print(_summary(results, out))
         return 0

@@ -83,6 +83,17 @@ class Terms:
         """Every term (UFL form) by name, potential ones first."""
         return {**self.potential, **self.residual}
 
+    def residual_and_jacobian(self, ctx: FormContext) -> tuple[Any, Any]:
+        """The residual (variation of the potential terms plus the residual terms) and its exact derivative.
+
+        With generalized-alpha the static terms sit at w_{n+1-alpha_f}: ``ctx.variation`` undoes the
+        1 - alpha_f that d/dw of Pi(w_eval) carries.
+        """
+        residual = ctx.variation(sum(self.potential.values()))
+        for form in self.residual.values():
+            residual = residual + form
+        return residual, ufl.derivative(residual, ctx.w, ufl.TrialFunction(ctx.w.function_space))
+
 
 def pull_term(ctx: FormContext, traction: Any, face_tag: int, terms: Terms) -> None:
     """The pull: - int t u_z ds on the thread's end face (t a Constant, F / (pi r_t^2))."""

@@ -59,21 +59,26 @@ class Yeoh:
             raise SceneError(f"Yeoh inv_d_k must be >= 0, got {self.inv_d}")
 
     def isochoric(self, F: Any) -> Any:
+        """sum_i c_i0 (I1bar - 3)^i."""
         _, i1 = invariants(F)
         return sum(ci * (i1 - 3) ** (i + 1) for i, ci in enumerate(self.c) if ci != 0.0)
 
     def volumetric(self, J: Any) -> Any:
+        """sum_k (1/d_k) (J - 1)^(2k)."""
         return sum(dk * (J - 1) ** (2 * (k + 1)) for k, dk in enumerate(self.inv_d) if dk != 0.0)
 
     def energy(self, F: Any) -> Any:
+        """W(F): the isochoric plus the volumetric part."""
         return self.isochoric(F) + self.volumetric(ufl.det(F))
 
     @property
     def shear_modulus(self) -> float:
+        """Initial shear modulus 2 c10 (Pa)."""
         return 2.0 * self.c[0]
 
     @property
     def bulk_modulus(self) -> float:
+        """Initial bulk modulus K0 = 2/d1 (Pa)."""
         return 2.0 * (self.inv_d[0] if self.inv_d else 0.0)
 
     def limits(self, F: Any) -> dict[Limit, Any]:
@@ -99,21 +104,26 @@ class Gent:
             raise SceneError(f"Gent needs mu > 0, jm > 0, inv_d >= 0; got {self.mu}, {self.jm}, {self.inv_d}")
 
     def isochoric(self, F: Any) -> Any:
+        """-(mu Jm / 2) ln(1 - (I1bar - 3) / Jm)."""
         _, i1 = invariants(F)
         return -0.5 * self.mu * self.jm * ufl.ln(1 - (i1 - 3) / self.jm)
 
     def volumetric(self, J: Any) -> Any:
+        """(1/d) ((J^2 - 1) / 2 - ln J)."""
         return self.inv_d * ((J**2 - 1) / 2 - ufl.ln(J))
 
     def energy(self, F: Any) -> Any:
+        """W(F): the isochoric plus the volumetric part."""
         return self.isochoric(F) + self.volumetric(ufl.det(F))
 
     @property
     def shear_modulus(self) -> float:
+        """Initial shear modulus mu (Pa)."""
         return self.mu
 
     @property
     def bulk_modulus(self) -> float:
+        """Initial bulk modulus K0 = 2/d (Pa)."""
         return 2.0 * self.inv_d
 
     def limits(self, F: Any) -> dict[Limit, Any]:
@@ -138,20 +148,24 @@ class StVenantKirchhoff:
 
     @property
     def lame(self) -> tuple[float, float]:
+        """(lambda, mu) from Young's modulus and Poisson's ratio (Pa)."""
         E, nu = self.young, self.poisson
         return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
 
     def energy(self, F: Any) -> Any:
+        """lambda/2 (tr E)^2 + mu E:E with the Green-Lagrange strain E."""
         lam, mu = self.lame
         E = 0.5 * (F.T * F - ufl.Identity(3))
         return 0.5 * lam * ufl.tr(E) ** 2 + mu * ufl.inner(E, E)
 
     @property
     def shear_modulus(self) -> float:
+        """Shear modulus mu (Pa)."""
         return self.lame[1]
 
     @property
     def bulk_modulus(self) -> float:
+        """Bulk modulus E / (3 (1 - 2 nu)) (Pa)."""
         return self.young / (3 * (1 - 2 * self.poisson))
 
     def limits(self, F: Any) -> dict[Limit, Any]:

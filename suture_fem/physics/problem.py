@@ -209,10 +209,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     dynamics = Dynamics(spaces.W, scene.effects) if effects.inertia else None
     ctx = _context(tagged, scene.materials, spaces, degree, effects.mixed, dynamics)
     terms, traction, gravity_factor = _terms(ctx, effects, scene.effects, dynamics)
-    # with generalized-alpha the static terms sit at w_{n+1-alpha_f}: d/dw of Pi(w_eval) carries 1 - alpha_f
-    residual = ctx.variation(sum(terms.potential.values()))
-    for form in terms.residual.values():
-        residual = residual + form
+    residual, jacobian = terms.residual_and_jacobian(ctx)
     constraints = _constraints(tagged, effects, spaces)
     u = spaces.u
     F = kinematics.deformation_gradient(u, ctx.x)
@@ -230,7 +227,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         gravity_factor=gravity_factor,
         terms=terms.by_name(),
         residual=residual,
-        jacobian=ufl.derivative(residual, spaces.state, ufl.TrialFunction(spaces.W)),
+        jacobian=jacobian,
         bcs=constraints.bcs,
         energy=strain_energy(ctx, F, effects.rigid),
         end_displacement=kinematics.axial(u) * ctx.weight * ctx.ds(regions.Facet.PULL_FACE),

@@ -200,14 +200,11 @@ def build(mesh: Any, cell_tags: Any, material_of_tag: dict[int, Material], degre
     elastic_terms(ctx, effects, terms)
     if load is not None:
         terms.residual["load"] = -load(ctx.v, ctx.x, ctx.weight)
-    # the residual as build_physics writes it (the variation of the potential terms plus the residual terms)
-    residual = ctx.variation(sum(terms.potential.values()))
-    for form in terms.residual.values():
-        residual = residual + form
+    residual, jacobian = terms.residual_and_jacobian(ctx)  # as build_physics does
     bcs = [_dirichlet_bc(mesh, W_u, effects.mixed, *condition) for condition in dirichlet]
     return Problem(mesh=mesh, W=W, W_u=W_u, state=state, u=ctx.u, p=ctx.p, x=ctx.x, cell_tags=cell_tags,
                    materials=ctx.materials, region_tags=ctx.region_tags, degree=degree, residual=residual,
-                   jacobian=ufl.derivative(residual, state, ufl.TrialFunction(W)), bcs=bcs,
+                   jacobian=jacobian, bcs=bcs,
                    unknowns=classify_dofs(W, bcs))
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry.estimate import check_fits
 from suture_fem.geometry.section import Geometry
 from suture_fem.outputs.evaluate import Outputs
 from suture_fem.outputs.fields import FieldWriter
@@ -46,9 +47,14 @@ def load_scene(source: str | Path | None = "paper", overrides: list[str] | None 
 
 
 def check(scene: Scene) -> None:
-    """The cross-key checks that need the geometry (cones that fit) and the effects (SceneError)."""
-    Geometry.from_section(scene.geometry)
+    """The checks that need the geometry (cones that fit), the effects and the mesh's size (SceneError).
+
+    The mesh's size is estimated before gmsh runs: a scene whose solve cannot fit in this machine's
+    memory is refused in one line instead of meshing for minutes.
+    """
+    geometry = Geometry.from_section(scene.geometry)
     check_scene(scene)
+    log.info("mesh estimate: %s", check_fits(geometry, scene.mesh).describe())
 
 
 def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: OnReport | None = None) -> Results:

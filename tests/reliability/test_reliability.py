@@ -109,3 +109,30 @@ def test_unreadable_scene_file(tmp_path, monkeypatch):
 def test_lengths_have_a_physical_lower_bound(key):
     message = _error("paper", [f"{key}=1e-300"])
     assert key in message and ">= 0.001" in message
+
+
+# ----------------------------------------------------------------------------- a mesh that cannot fit
+
+def test_a_mesh_too_large_for_the_machine_is_refused_before_meshing():
+    from suture_fem.pipeline import load_scene
+
+    with pytest.raises(SceneError) as err:
+        load_scene("paper", ["mesh.refinement=6"])
+    message = str(err.value)
+    assert "\n" not in message and "mesh.refinement = 6" in message
+    assert "cells" in message and "GiB" in message
+
+
+def test_the_mesh_estimate_is_close_to_gmsh_and_scales_with_refinement():
+    from suture_fem.geometry.estimate import check_fits
+    from suture_fem.geometry.section import Geometry
+
+    scene = parse_scene("paper")
+    geometry = Geometry.from_section(scene.geometry)
+    coarse = check_fits(geometry, scene.mesh)
+    # gmsh meshes the paper scene with 12,665 triangles at refinement 0 (docs/reliability.md)
+    assert 0.8 * 12665 < coarse.cells < 1.2 * 12665
+    fine = check_fits(geometry, parse_scene("paper", ["mesh.refinement=1"]).mesh)
+    assert 3.0 < fine.cells / coarse.cells < 4.5  # halving every size: about four times the cells
+    with pytest.raises(SceneError, match="needing about"):
+        check_fits(geometry, scene.mesh, memory_gib=0.01)

@@ -128,8 +128,9 @@ copy_host_settings() {
     [ -f "$f" ] || continue
     dpkg-query -S "$f" >/dev/null 2>&1 || cp "$f" "$root/etc/apt/apt.conf.d/"
   done
-  for f in /etc/pip.conf /etc/xdg/pip/pip.conf /root/.config/pip/pip.conf /root/.pip/pip.conf; do
-    if [ -f "$f" ]; then mkdir -p "$root$(dirname "$f")"; cp "$f" "$root$f"; fi
+  cp /etc/pip.conf "$root/etc/pip.conf" 2>/dev/null || true
+  for f in /etc/xdg/pip /root/.config/pip /root/.pip; do  # with the files a pip.conf names there
+    if [ -d "$f" ]; then mkdir -p "$root$f"; cp -a "$f/." "$root$f/"; fi
   done
   cp -L /etc/resolv.conf "$root/etc/resolv.conf" 2>/dev/null || true
 }

@@ -1,4 +1,6 @@
-"""Benchmark: what each effect costs and changes on the paper scene (issue "Simulate only the effects a scene calls for").
+"""Benchmark: what each effect costs and changes on the paper scene.
+
+From the issue "Simulate only the effects a scene calls for".
 
 Parts (each run in its own process; wall and CPU time of that process are both recorded, since the
 machine may be shared):
@@ -84,8 +86,9 @@ def part_rigid(tmp: Path) -> dict:
                      "tissue_usum_rigid_mm": tissue_rg, "tissue_usum_rel_diff": (tissue_rg - tissue_el) / tissue_el})
     print("F (N) | USUM elastic | USUM rigid | diff | tissue USUM elastic | rigid | diff")
     for r in rows:
-        print(f"{r['force_n']:g} | {r['usum_elastic_mm']:.4f} | {r['usum_rigid_mm']:.4f} | {100 * r['usum_rel_diff']:+.2f} % | "
-              f"{r['tissue_usum_elastic_mm']:.4f} | {r['tissue_usum_rigid_mm']:.4f} | {100 * r['tissue_usum_rel_diff']:+.2f} %")
+        print(f"{r['force_n']:g} | {r['usum_elastic_mm']:.4f} | {r['usum_rigid_mm']:.4f} | "
+              f"{100 * r['usum_rel_diff']:+.2f} % | {r['tissue_usum_elastic_mm']:.4f} | "
+              f"{r['tissue_usum_rigid_mm']:.4f} | {100 * r['tissue_usum_rel_diff']:+.2f} %")
     for s in (summary(el), summary(rg)):
         print(f"{s['label']}: {s['unknowns']} unknowns of {s['dofs']} dofs, {s['newton_iterations']} Newton its, "
               f"{s['wall_time_s']:.1f} s wall (in-run), {s['process_cpu_s']:.1f} s CPU")

@@ -1,4 +1,4 @@
-"""Benchmark: the hard-case matrix (suture_fem/hardcases.py), each case in its own process.
+"""Benchmark: the hard-case matrix (suture_fem/studies/hardcases.py), each case in its own process.
 
 Prints the table and writes JSON + Markdown: case, converged or stopped, cause, load reached,
 Newton iterations, cutbacks, rejected trial states, USUM, unknowns, wall time; then case 1's USUM
@@ -50,8 +50,8 @@ def main() -> None:
                   f"{row.get('load_reached_n')} N, {row.get('wall_time_s') or 0:.1f} s", flush=True)
             write_json(path, {"rows": in_order()})  # keep what is done if interrupted
     rows = in_order()
-    text = "## Hard-case matrix\n\n" + markdown(rows) + "\n## Case 1: USUM, EPTOEQV and tissue SEQV at 4 N against the bulk modulus\n\n" \
-        + locking_table(rows)
+    text = ("## Hard-case matrix\n\n" + markdown(rows)
+            + "\n## Case 1: USUM, EPTOEQV and tissue SEQV at 4 N against the bulk modulus\n\n" + locking_table(rows))
     write_text(out.with_suffix(".md"), text)
     print(text)
     failed = [r["case"] for r in rows if r["outcome"] == "FAILED"]

@@ -1,9 +1,12 @@
 """Benchmark: one scene on 1 and 2 MPI ranks, and sweep throughput for two ways of using 2 ranks.
 
-1. One scene (default: the paper scene, 4 cones, degree 2, 4 N) solved by `suture-fem run` under
-   `mpirun -n 1` and `-n 2`: wall time, speed-up, and the peak resident memory of every rank.
+1. One scene (default: the paper scene, 4 cones, degree 2, 4 N) solved as `suture-fem run` solves it
+   under `mpirun -n 1` and `-n 2`: wall time, speed-up, and the peak resident memory of every rank.
 2. One sweep (default: 1-4 cones x 1, 2 N at degree 1, 8 scenes) under `mpirun -n 2` as one group
    of 2 ranks (`--ranks-per-scene 2`) and as two groups of 1 rank: scenes per minute.
+
+The ranks run this file as a worker, which calls the library (`pipeline.run_scene`, the sweep study)
+the way the command line does, so that it can measure each rank's memory after the solve.
 
 Each measurement is a fresh `mpirun`, so form compilation is served from the FFCx cache (warm it
 with one run first: `--warmup`). The load average is recorded before and after every measurement:
@@ -38,13 +41,37 @@ def mpi_env() -> dict[str, str]:
     return env
 
 
-def worker(argv: list[str]) -> int:
-    """Run `suture-fem ARGV` on every rank, then write every rank's peak memory to $BENCH_MEMORY."""
+def solve(job: dict, comm) -> int:
+    """What `suture-fem run` or `suture-fem sweep` does for JOB; returns the command's exit code.
+
+    JOB: {"run": scene, "set": [KEY=VALUE, ...], "out": dir} or {"sweep": file, "out": dir, "ranks_per_scene": k}.
+    """
+    from suture_fem.support.errors import SolveStopped, SutureFemError
+
+    try:
+        if "run" in job:
+            from suture_fem.pipeline import load_scene, run_scene
+
+            run_scene(load_scene(job["run"], job["set"]), Path(job["out"]), comm)
+            return 0
+        from suture_fem.studies.sweep import load_sweep, log_per_group, run_sweep
+
+        log_per_group(None, comm.rank == 0)
+        sweep = load_sweep(job["sweep"], out=job["out"])
+        data, _ = run_sweep(sweep, comm, job["ranks_per_scene"])
+        return 0 if data["counts"].get("converged", 0) == len(sweep.cases) else SolveStopped.exit_code
+    except SutureFemError as exc:
+        return exc.exit_code
+
+
+def worker(job: dict) -> int:
+    """Solve JOB on every rank, then write every rank's peak memory to $BENCH_MEMORY."""
     from mpi4py import MPI
 
-    from suture_fem.cli import main
+    from suture_fem.support.logging import setup_logging
 
-    code = main(argv)
+    setup_logging(MPI.COMM_WORLD)
+    code = solve(job, MPI.COMM_WORLD)
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
     peaks = MPI.COMM_WORLD.gather(round(peak_mb, 1), root=0)
     if MPI.COMM_WORLD.rank == 0:
@@ -52,32 +79,32 @@ def worker(argv: list[str]) -> int:
     return code
 
 
-def launch(ranks: int, argv: list[str], tmp: Path, ok: tuple[int, ...] = (0,)) -> dict:
-    """`mpirun -n RANKS suture-fem ARGV` through the worker; wall time, memory and load around it."""
+def launch(ranks: int, job: dict, tmp: Path, ok: tuple[int, ...] = (0,)) -> dict:
+    """`mpirun -n RANKS` the worker on JOB (see `solve`); wall time, memory and load around it."""
     mpirun = shutil.which("mpirun") or "mpirun"
     memory = tmp / "memory.json"
     cmd = [mpirun, "-n", str(ranks), "--allow-run-as-root", "--oversubscribe", sys.executable, __file__,
-           "--worker", *argv]
+           "--worker", json.dumps(job)]
     load_before = os.getloadavg()[0]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env={**mpi_env(), "BENCH_MEMORY": str(memory)})
     wall = time.perf_counter() - t0
     if proc.returncode not in ok:
-        raise SystemExit(f"{' '.join(argv)} on {ranks} rank(s) exited {proc.returncode}:\n{proc.stderr}")
+        raise SystemExit(f"{json.dumps(job)} on {ranks} rank(s) exited {proc.returncode}:\n{proc.stderr}")
     return {"ranks": ranks, "process_wall_s": round(wall, 2), **json.loads(memory.read_text()),
             "load_1min_before": round(load_before, 2), "load_1min_after": round(os.getloadavg()[0], 2)}
 
 
 def bench_scene(scene: str, overrides: list[str], tmp: Path) -> list[dict]:
     rows = []
-    sets = [a for o in overrides for a in ("--set", o)]
     for ranks in (1, 2):
         out = tmp / f"scene{ranks}"
-        row = launch(ranks, ["run", scene, *sets, "--out", str(out)], tmp)
+        row = launch(ranks, {"run": scene, "set": overrides, "out": str(out)}, tmp)
         res = json.loads((out / "results.json").read_text())
         t = res["timings_s"]
-        row.update(dofs=res["dofs"], newton_iterations=res["newton_iterations"], solve_wall_s=round(res["wall_time_s"], 2),
-                   assembly_s=t["assembly"], linear_solve_s=t["linear_solve"], usum_mm=res["usum_mm"])
+        row.update(dofs=res["dofs"], newton_iterations=res["newton_iterations"],
+                   solve_wall_s=round(res["wall_time_s"], 2), assembly_s=t["assembly"],
+                   linear_solve_s=t["linear_solve"], usum_mm=res["usum_mm"])
         rows.append(row)
     for row in rows:
         row["speedup"] = round(rows[0]["solve_wall_s"] / row["solve_wall_s"], 2)
@@ -92,7 +119,7 @@ def bench_sweep(cones: list[int], forces: list[float], common: list[str], tmp: P
     rows = []
     for k in (2, 1):
         out = tmp / f"sweep_k{k}"
-        row = launch(2, ["sweep", str(path), "--out", str(out), "--ranks-per-scene", str(k)], tmp, ok=(0, 3))
+        row = launch(2, {"sweep": str(path), "out": str(out), "ranks_per_scene": k}, tmp, ok=(0, 3))
         summary = json.loads((out / "summary.json").read_text())
         last = json.loads((out / "last_run.json").read_text())
         n = len(summary["rows"])
@@ -111,7 +138,7 @@ def table(rows: list[dict], cols: list[str]) -> str:
 
 def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--worker":
-        sys.exit(worker(sys.argv[2:]))
+        sys.exit(worker(json.loads(sys.argv[2])))
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default="paper")
     ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
@@ -132,8 +159,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         if args.warmup:
-            launch(1, ["run", args.scene, *[a for o in args.overrides for a in ("--set", o)], "--out", str(tmp / "w1")], tmp)
-            launch(1, ["run", "paper", *[a for o in sweep_set for a in ("--set", o)], "--out", str(tmp / "w2")], tmp)
+            launch(1, {"run": args.scene, "set": args.overrides, "out": str(tmp / "w1")}, tmp)
+            launch(1, {"run": "paper", "set": sweep_set, "out": str(tmp / "w2")}, tmp)
         if not args.skip_scene:
             record["one_scene"] = bench_scene(args.scene, args.overrides, tmp)
             print(f"One scene ({args.scene} {' '.join(args.overrides)}), {os.cpu_count()} CPUs:")

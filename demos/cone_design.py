@@ -74,7 +74,7 @@ HOLLOW_CONES = [0, 2, 4] if CI else list(range(9))
 FULL_CONES = [2, 4] if CI else list(range(1, 9))
 SPACINGS_MM = [4.0, 6.25, 9.0] if CI else [3.5, 4.5, 6.25, 9.0, 12.0]
 PICTURE_CONES = [0, 2, 4] if CI else [0, 2, 4, 8]
-DEFAULT_SPACING = load_scene("paper")["geometry"]["cone_spacing_mm"]
+DEFAULT_SPACING = load_scene("paper").geometry.cone_spacing_mm
 OUT = Path("out/cone_design")
 
 # %% [markdown]
@@ -255,9 +255,12 @@ print("tissue EPTOEQV outside rims:", ", ".join(f"{n}: {e:.3f}" for n, e in zip(
 print("full against hollow (USUM, peak tissue SEQV):",
       ", ".join(f"{n} cones {du:+.1%}, {ds:+.1%}" for n, (du, ds) in full_vs_hollow.items()))
 print("USUM by spacing (mm):", ", ".join(f"{s:g} mm: {u:.3f}" for s, u in zip(SPACINGS_MM, spaced["usum"])))
-print("USUM - thread-end displacement, largest:", f"{max(abs(r['usum_mm'] - r['thread_end_displacement_mm']) for r in runs.values()):.1e} mm")
+print("USUM - thread-end displacement, largest:",
+      f"{max(abs(r['usum_mm'] - r['thread_end_displacement_mm']) for r in runs.values()):.1e} mm")
 ratio_n = [n for n in (1, 2, 3) if n in HOLLOW_CONES]
-print("USUM(n) / USUM(4): ours", ", ".join(f"{n}: {hollow['usum'][HOLLOW_CONES.index(n)] / hollow['usum'][HOLLOW_CONES.index(4)]:.2f}" for n in ratio_n),
+usum_4 = hollow["usum"][HOLLOW_CONES.index(4)]
+print("USUM(n) / USUM(4): ours",
+      ", ".join(f"{n}: {hollow['usum'][HOLLOW_CONES.index(n)] / usum_4:.2f}" for n in ratio_n),
       "| paper", ", ".join(f"{n}: {PAPER['usum'][n] / PAPER['usum'][4]:.2f}" for n in ratio_n))
 
 assert all(r["status"] == "converged" for r in runs.values())

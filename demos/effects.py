@@ -13,7 +13,7 @@
 # %% [markdown]
 # # Effects: quasi-static against a damped transient hold, rigid against elastic suture
 #
-# A scene's `[effects]` section names the physics it needs (`suture_fem/effects.py`); what it leaves
+# A scene's `[effects]` section names the physics it needs (`suture_fem/physics/effects/`); what it leaves
 # off is never built, and `results.json` records under `effects` what was built and what was left
 # out, and why. Two questions a user asks:
 #

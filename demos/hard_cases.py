@@ -16,9 +16,9 @@
 # A run of suture_fem ends one of two ways: it **converges** (exit code 0, finite outputs, the
 # fixed surface's reaction balancing the force), or it **stops with a diagnosis** (exit code 3, a
 # named cause, every converged load step kept in `results.json`). Never a third way: a wrong number
-# without a warning. This notebook drives three hard cases through `suture_fem/hardcases.py` (which
+# without a warning. This notebook drives three hard cases through `suture_fem/studies/hardcases.py` (which
 # classifies a run exactly that way; `benchmarks/hardcases.py` runs the whole matrix) and
-# `suture-fem maxload` (`suture_fem/maxload.py`).
+# `suture-fem maxload` (`suture_fem/studies/maxload.py`).
 #
 # ## 1. Near-incompressible tissue: volumetric locking
 #
@@ -69,7 +69,8 @@ for factor in factors:
                      f"effects.incompressibility=\"{form}\"")
         locking[(factor, degree, form)] = hc.run_case(name, overrides, out / name.replace(" ", "_"), inprocess=True)
 
-print(f"{'1/d factor':>10} {'1/2 - nu':>9} {'formulation':>18} {'outcome':>10} {'USUM (mm)':>10} {'dofs':>7} {'Newton':>7}")
+print(f"{'1/d factor':>10} {'1/2 - nu':>9} {'formulation':>18} {'outcome':>10} {'USUM (mm)':>10} {'dofs':>7} "
+      f"{'Newton':>7}")
 for (factor, degree, form), row in locking.items():
     print(f"{factor:10d} {0.5 - hc.poisson(factor):9.2e} {f'P{degree} {form}':>18} {row['outcome']:>10} "
           f"{row['usum_mm']:10.4f} {row['unknowns'] or 0:7d} {row['newton_iterations']:7d}")

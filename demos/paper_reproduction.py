@@ -17,7 +17,7 @@
 # tissue cylinder at 1 to 4 N and reports the displacement USUM, the von Mises stress SEQV and the
 # equivalent strain EPTOEQV (Tables 1 and 2), USUM contour plots (Figures 2-3) and a
 # force-displacement curve (Figure 4). `suture-fem reproduce` solves the same cases, one load ramp
-# per cone count, and puts every paper value next to ours (`suture_fem/reproduce.py`,
+# per cone count, and puts every paper value next to ours (`suture_fem/studies/reproduce/`,
 # `docs/reproduction.md`).
 #
 # ## The protocol
@@ -155,7 +155,7 @@ for name in cmp.get("figures", []):
 # stiffer and USUM *falls* as the tissue lengthens; it can only rise a little as the tissue
 # shortens. The search `suture-fem reproduce --calibrate` (bracketing the tissue length beyond the
 # cones, 1-30 mm, then Illinois regula falsi) ended **unreachable** at degree 2: 1 mm gives
-# 2.694 mm, 30 mm gives 2.030 mm (the record in `suture_fem/scenes/paper_reproduction.toml`). The
+# 2.694 mm, 30 mm gives 2.030 mm (the record in `suture_fem/scene/builtin/paper_reproduction.toml`). The
 # far margin alone, the pulled-end margin alone, the cone spacing at its minimum and the thread
 # radius at the USP lower bound all stay below 3 mm. So nothing was moved: the margins keep their
 # default 3 mm and **every paper value is a prediction**. Below, the calibration record of this run

@@ -30,8 +30,10 @@
 # Each region stores energy (paper Table 3):
 #
 # * hypodermis and dermis (Yeoh): $W = \sum_{i=1}^{2} C_{i0}(\bar I_1 - 3)^i + \sum_{k=1}^{2} \frac{1}{d_k}(J-1)^{2k}$,
-# * epidermis (Gent): $W = -\frac{\mu J_m}{2}\ln\!\left(1 - \frac{\bar I_1 - 3}{J_m}\right) + \frac{1}{d}\left(\frac{J^2-1}{2} - \ln J\right)$,
-# * thread and cones (PLLA, St Venant-Kirchhoff): $W = \frac{\lambda}{2}(\mathrm{tr}\,E)^2 + \mu\,E:E$, $E = \frac12(F^TF - I)$.
+# * epidermis (Gent): $W = -\frac{\mu J_m}{2}\ln\!\left(1 - \frac{\bar I_1 - 3}{J_m}\right)
+#   + \frac{1}{d}\left(\frac{J^2-1}{2} - \ln J\right)$,
+# * thread and cones (PLLA, St Venant-Kirchhoff): $W = \frac{\lambda}{2}(\mathrm{tr}\,E)^2 + \mu\,E:E$,
+#   $E = \frac12(F^TF - I)$.
 #
 # The outer skin surface is fixed; the force $F$ pulls the thread's free end face of radius $r_t$
 # as a traction $t = F/(\pi r_t^2)$, so that $\int t\,2\pi r\,dr = F$. The solver finds the
@@ -66,7 +68,7 @@ setup_logging(comm)  # the solver's progress, one line per load step
 # %% [markdown]
 # ## Run the built-in scene
 #
-# `load_scene` merges the scene on the documented defaults (`suture_fem/scenes/defaults.toml`)
+# `load_scene` merges the scene on the documented defaults (`suture_fem/scene/defaults.toml`)
 # and validates it; `run_scene` meshes, solves the load ramp 0 → 4 N with outputs at 1, 2, 3 and
 # 4 N and writes `results.json`. The `on_report` hook hands over the solved state at each of those
 # forces, which we turn into pictures. (The same run from a shell: `suture-fem run paper`.)
@@ -92,7 +94,8 @@ print(f"{results['cells']} cells, {results['dofs']} unknowns, {results['wall_tim
 # %%
 results = json.loads((out / "results.json").read_text())
 r_t = results["scene"]["geometry"]["thread_radius_mm"] * 1e-3
-print(f"status: {results['status']}, {results['load_steps']} load steps, {results['newton_iterations']} Newton iterations")
+print(f"status: {results['status']}, {results['load_steps']} load steps, "
+      f"{results['newton_iterations']} Newton iterations")
 print(f"{'F (N)':>6} {'USUM (mm)':>10} {'end (mm)':>9} {'SEQV (MPa)':>11} {'F/(pi r_t^2) (MPa)':>19} "
       f"{'tissue SEQV (kPa)':>18} {'EPTOEQV':>8} {'reaction (N)':>13}")
 for rec in results["at_forces"]:
@@ -132,14 +135,15 @@ plt.show()
 #
 # `plots.render_usum` (the pictures `suture-fem reproduce` draws) shows the full section (the
 # half-section mirrored about the axis) on the deformed shape, at 1 N and at 4 N, in bands of one
-# colour scale, with the suture and the tissue layers outlined. The thread and the tissue next to it move almost together; the
-# displacement dies out across the 3.6 mm to the fixed skin surface, and the tissue's far end is
+# colour scale, with the suture and the tissue layers outlined. The thread and the tissue next to it move almost
+# together; the displacement dies out across the 3.6 mm to the fixed skin surface, and the tissue's far end is
 # drawn into the tissue along the thread.
 
 # %%
 first, last = min(grids), max(grids)
 png = plots.render_usum([grids[first], grids[last]], out / "usum.png",
-                        titles=[f"F = {f:g} N: USUM {grids[f].point_data['usum_mm'].max():.2f} mm" for f in (first, last)],
+                        titles=[f"F = {f:g} N: USUM {grids[f].point_data['usum_mm'].max():.2f} mm"
+                                for f in (first, last)],
                         suptitle="USUM, displacement magnitude |u|, deformed shape")
 display(Image(filename=str(png), width=900))
 
@@ -179,7 +183,8 @@ print("overall SEQV region and (r, z) in mm at each force:",
       ", ".join(f"{rec['seqv_pa_region']} ({rec['seqv_pa_at_mm'][0]:.3f}, {rec['seqv_pa_at_mm'][1]:.2f})"
                 for rec in results["at_forces"]))
 print("displacement per newton between reported forces (mm/N):", ", ".join(f"{v:.2f}" for v in per_newton))
-print(f"USUM - thread-end displacement at {peak['force_n']:g} N: {peak['usum_mm'] - peak['thread_end_displacement_mm']:.2e} mm")
+print(f"USUM - thread-end displacement at {peak['force_n']:g} N: "
+      f"{peak['usum_mm'] - peak['thread_end_displacement_mm']:.2e} mm")
 print(f"tissue SEQV / overall SEQV at {peak['force_n']:g} N: {tissue_to_thread:.3f}")
 print("USUM against the paper (Table 1), relative difference:",
       ", ".join(f"{rec['force_n']:g} N {rec['usum_mm'] / p - 1:+.0%}"

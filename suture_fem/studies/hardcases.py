@@ -24,8 +24,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-#: Causes a stopped run may name (solver.py).
-CAUSES = ("gent_limit", "inverted_element", "newton_divergence", "linear_solver")
+from suture_fem.support.errors import StopCause
+
+#: Causes a stopped run may name (results.json's ``diagnosis.cause``, a plain string equal to its member).
+CAUSES = tuple(StopCause)
 #: Relative mismatch |reaction + F| / F a converged run may leave: Newton stops at |R| <= 1e-10 N
 #: (solver.atol) or at the residual's round-off floor (below 1e-9 N on the paper scene) on forces of order
 #: 1 N, so 1e-6 leaves three orders of margin and still catches a wrong sum.
@@ -90,7 +92,8 @@ FAST = ("mesh.degree=1", "mesh.refinement=0")
 FAST_SUBSET: dict[str, tuple[str, ...]] = {
     "paper P1 1 N": (*FAST, "loading.force_n=1.0", "loading.report_forces_n=[]"),
     "K x1000 P1 displacement": (*bulk(1000), *FAST, "loading.force_n=0.5", "loading.report_forces_n=[]"),
-    "suture E = 1.5e+07 Pa": ("materials.suture.young=1.5e7", *FAST, "loading.force_n=1.0", "loading.report_forces_n=[]"),
+    "suture E = 1.5e+07 Pa": ("materials.suture.young=1.5e7", *FAST, "loading.force_n=1.0",
+                              "loading.report_forces_n=[]"),
     "12 N, 1 cone, P1": ("loading.force_n=12", "geometry.cones=1", *FAST, "loading.report_forces_n=[]"),
     "Gent jm = 0.05": ("materials.epidermis.jm=0.05", *FAST, "loading.report_forces_n=[]"),
 }

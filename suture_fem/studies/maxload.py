@@ -1,7 +1,7 @@
 """``suture-fem maxload SCENE``: the largest force a scene carries before a physical limit, bracketed.
 
 The scene is ramped toward ``--up-to`` newtons with the adaptive load stepping of
-:mod:`suture_fem.solver`, its smallest step set so that the last converged force and the first
+:mod:`suture_fem.solve`, its smallest step set so that the last converged force and the first
 failed one are less than ``--tol`` newtons apart (a failed step is halved until it is shorter than
 2 * solver.min_step * F, so solver.min_step = tol / (2 F)). The run stops where no admissible
 equilibrium is found any more: the Gent limit reached (cause ``gent_limit``), an element about to
@@ -16,15 +16,15 @@ stopped for a numerical reason.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 from typing import Any
 
 from suture_fem.scene import Scene
-from suture_fem.support.errors import SceneError, SolveStopped
+from suture_fem.support.errors import SceneError, SolveStopped, StopCause
 from suture_fem.support.io import write_json
 
-PHYSICAL = ("gent_limit", "inverted_element")
+#: The stops that are a limit of the tissue, not of the numerics: they bracket the largest force.
+PHYSICAL = (StopCause.GENT_LIMIT, StopCause.INVERTED_ELEMENT)
 
 
 def search_scene(scene: Scene, up_to_n: float, tol_n: float) -> Scene:
@@ -66,33 +66,3 @@ def max_load(scene: Scene, comm: Any, up_to_n: float, tol_n: float, out: Path | 
     if out is not None:
         on_root(comm, f"writing {out / 'maxload.json'}", write_json, out / "maxload.json", record)
     return record
-
-
-def _handler(args: argparse.Namespace, comm: Any) -> int:
-    from suture_fem.pipeline import load_scene
-
-    scene = load_scene(args.scene, list(args.overrides))
-    up_to = args.up_to if args.up_to is not None else 10.0 * scene.loading.force_n
-    name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
-    out = Path(args.out or f"results/{name}-maxload")
-    rec = max_load(scene, comm, up_to, args.tol, out)
-    if comm.rank == 0:
-        if rec["bracketed"]:
-            print(f"suture-fem: the scene carries {rec['bracket_n'][0]:.6g} N and fails at {rec['bracket_n'][1]:.6g} N "
-                  f"(tolerance {rec['tolerance_n']:g} N): {rec['cause']}; {out / 'maxload.json'}")
-        elif rec["cause"] is None:
-            print(f"suture-fem: carries at least {up_to:g} N (no limit below --up-to); {out / 'maxload.json'}")
-        else:
-            print(f"suture-fem: the ramp stopped at {rec['max_force_n']:.6g} N for a numerical reason "
-                  f"({rec['cause']}), not a physical limit; {out / 'maxload.json'}")
-    return 3 if rec.get("limit") == "numerical" else 0
-
-
-def register(subparsers: Any, scene_args: Any) -> None:
-    p = subparsers.add_parser("maxload", help="bracket the largest force a scene carries before a physical limit")
-    scene_args(p)
-    p.add_argument("--up-to", type=float, default=None, metavar="N",
-                   help="highest force to try, N (default: 10 x loading.force_n)")
-    p.add_argument("--tol", type=float, default=0.01, metavar="N", help="bracket width, N (default 0.01)")
-    p.add_argument("--out", default=None, help="output folder (default: results/<scene>-maxload)")
-    p.set_defaults(handler=_handler)

@@ -167,6 +167,13 @@ def test_nice_levels_have_a_round_step_and_cover_the_range():
         assert np.allclose(np.diff(levels), step)
 
 
+def base_scene():
+    """The typed scene the calibration records the mesh of (the synthetic curves solve nothing)."""
+    from suture_fem.pipeline import load_scene
+
+    return load_scene(rp.SCENE)
+
+
 def test_calibration_search_finds_a_bracketed_target():
     slope = 0.05  # mm of USUM per mm of the dimension, falling
     calls = []
@@ -175,7 +182,7 @@ def test_calibration_search_finds_a_bracketed_target():
         calls.append(v)
         return 4.0 + slope * (12.0 - v) + 1e-3 * (12.0 - v) ** 2  # target reached at v = 12 mm
 
-    cal = rp.calibrate({"mesh": {}}, None, usum_of=usum_of)
+    cal = rp.calibrate(base_scene(), None, usum_of=usum_of)
     assert cal["status"] == "calibrated"
     assert abs(cal["usum_mm"] - 4.0) <= 2e-3 * 4.0
     # near v = 12 the curve's slope is -slope, so the dimension is within the USUM tolerance / slope
@@ -185,7 +192,7 @@ def test_calibration_search_finds_a_bracketed_target():
 
 
 def test_calibration_search_reports_an_unreachable_target_and_moves_nothing():
-    cal = rp.calibrate({"mesh": {}}, None, usum_of=lambda v: 2.7 - 0.01 * v)
+    cal = rp.calibrate(base_scene(), None, usum_of=lambda v: 2.7 - 0.01 * v)
     assert cal["status"] == "unreachable"
     assert len(cal["evaluations"]) == 2
     assert cal["value_mm"] == rp.CALIBRATED.lo and cal["usum_mm"] == pytest.approx(2.7 - 0.01 * rp.CALIBRATED.lo)
@@ -211,8 +218,9 @@ if comm.rank == 0:
     z, r = grid.points[:, 0], grid.points[:, 1]  # mm
     u = grid.point_data["u_mm"]  # (u_z, u_r, 0)
     err = max(np.abs(u[:, 1] - (2.0 * r + z)).max(), np.abs(u[:, 0] - 3.0 * z).max())
-    print(json.dumps({"points": grid.n_points, "cells": grid.n_cells, "global_nodes": physics.V.dofmap.index_map.size_global,
-                      "global_cells": n_cells, "max_error_mm": float(err), "max_u_mm": float(np.abs(u).max())}))
+    print(json.dumps({"points": grid.n_points, "cells": grid.n_cells,
+                      "global_nodes": physics.V.dofmap.index_map.size_global, "global_cells": n_cells,
+                      "max_error_mm": float(err), "max_u_mm": float(np.abs(u).max())}))
 else:
     assert grid is None
 """

@@ -1,0 +1,121 @@
+"""comparison.md: the side-by-side table, the trends, the calibration and the run, as Markdown."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from suture_fem.studies.reproduce.paper import LABELS
+
+
+def fmt(q: str, v: Any) -> str:
+    """A value of quantity ``q`` as shown in the tables (SEQV in kPa); "-" where missing."""
+    if v is None:
+        return "-"
+    if q == "seqv_pa":
+        return f"{v / 1e3:.4g} kPa"
+    if q == "usum_mm":
+        return f"{v:.3f} mm"
+    return f"{v:.3f}"
+
+
+def pct(v: Any) -> str:
+    """A relative error as a signed percentage; "-" where missing."""
+    return "-" if v is None else f"{100 * v:+.1f} %"
+
+
+def comparison_markdown(cmp: dict[str, Any], info: dict[str, Any]) -> str:
+    """comparison.md: the side-by-side table, the trends, the calibration and the run."""
+    lines = [
+        "# Mousavi et al., Tables 1 and 2: the paper against suture_fem",
+        "",
+        f"Scene `{info['scene_name']}`: {info['geometry']}. Mesh: degree {info['mesh']['degree']}, refinement "
+        f"{info['mesh']['refinement']} ({info['dofs']}). One load ramp to 4 N per cone count. "
+        f"Wall time of the whole command: {info['wall_time_s']:.0f} s on {info['ranks']} MPI rank(s).",
+        "",
+        "## Calibration",
+        "",
+        _calibration_text(cmp["calibration"]),
+        "",
+    ]
+    lines += _values_section(cmp) + _relative_usum_section(cmp) + _trends_section(cmp)
+    lines += ["", "## Files", "", "`comparison.json` (everything above), `cones_N/results.json`, `fields/*.vtu`, "
+              "`fig2_usum_4_cones.png`, `fig3_usum_1_n.png`, `fig4_force_displacement.png`, `trends_vs_cones.png`, "
+              "`trends_vs_force.png`. See docs/reproduction.md.", ""]
+    return "\n".join(lines)
+
+
+def _values_section(cmp: dict[str, Any]) -> list[str]:
+    """Every paper value with ours, the errors and the role; what is not used; the largest prediction error."""
+    lines = [
+        "## Values",
+        "",
+        "Error = (ours - paper) / paper. \"ours\" is the measure the paper reports (USUM: maximum over the "
+        "model; SEQV and EPTOEQV: maximum over the tissue, which includes the peak at the sharp cone rims); "
+        "\"outside rims\" is " + cmp["measures"]["outside_rims"] + ".",
+        "",
+        "| source | cones | force | quantity | paper | ours | error | ours, outside rims | error | role |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in cmp["rows"]:
+        q = r["quantity"]
+        lines.append(
+            f"| {r['source']} | {r['cones']} | {r['force_n']:g} N | {LABELS[q].split(' ')[0]} | {r['paper_printed']} "
+            f"| {fmt(q, r['ours'])} | {pct(r['rel_error'])} | {fmt(q, r['ours_outside_rims'])} | "
+            f"{pct(r['rel_error_outside_rims'])} | {r['role']} |"
+        )
+    not_used = [f"{r['source']}, {r['cones']} cones, {r['force_n']:g} N, SEQV {r['paper_printed']} ({r['note']})"
+                for r in cmp["rows"] if r["note"]]
+    lines += ["", "Not used: " + "; ".join(not_used) + "."]
+    w, wa = cmp["largest_prediction_error"], cmp["largest_prediction_error_outside_rims"]
+    if w:
+        lines += ["", f"Largest prediction error: {pct(w['rel_error'])} ({w['source']}, {LABELS[w['quantity']]}, "
+                      f"{w['cones']} cones, {w['force_n']:g} N)."]
+    if wa:
+        lines[-1] += (f" With the measures outside the rims: {pct(wa['rel_error_outside_rims'])} "
+                      f"({wa['source']}, {LABELS[wa['quantity']]}, {wa['cones']} cones, {wa['force_n']:g} N).")
+    return lines
+
+
+def _relative_usum_section(cmp: dict[str, Any]) -> list[str]:
+    """USUM relative to the calibration case: how it changes with cones and force, apart from its level."""
+    lines = ["", "USUM relative to the 4-cone, 1 N case (paper / 4.0 mm against ours / ours at 4 cones, 1 N): how "
+             "USUM changes with cones and force, apart from the overall level.", "",
+             "| source | cones | force | paper | ours | error |", "| --- | --- | --- | --- | --- | --- |"]
+    for r in cmp["usum_relative_to_target"]:
+        lines.append(f"| {r['source']} | {r['cones']} | {r['force_n']:g} N | {r['paper']:.3f} | {r['ours']:.3f} | "
+                     f"{pct(r['rel_error'])} |")
+    return lines
+
+
+def _trends_section(cmp: dict[str, Any]) -> list[str]:
+    """The paper's trends, ours, and whether they hold (also with the measures outside the rims)."""
+    lines = ["", "## Trends", "", "| trend | paper | ours | holds | ours, outside rims | holds |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for t in cmp["trends"]:
+        q = "seqv_pa" if t["trend"].startswith("SEQV") else "eptoeqv" if t["trend"].startswith("EPTOEQV") else "usum_mm"
+        vals = " / ".join(fmt(q, v) for v in t["ours"])
+        alt = " / ".join(fmt(q, v) for v in t["ours_outside_rims"]) if t["ours_outside_rims"] else "-"
+        lines.append(f"| {t['trend']} | {t['paper']} | {vals} | {_yes(t['holds'])} | {alt} | "
+                     f"{_yes(t['holds_outside_rims'])} |")
+    return lines
+
+
+def _yes(v: Any) -> str:
+    return "-" if v is None else ("yes" if v else "**no**")
+
+
+def _calibration_text(cal: dict[str, Any]) -> str:
+    keys = " = ".join(cal["keys"])
+    if cal.get("status") == "from scene":
+        return (f"Not searched in this run: {keys} = {cal['value_mm']:g} mm is read from the scene "
+                f"(see its comments and docs/reproduction.md). USUM at the target case: {cal['usum_mm']:.4g} mm "
+                f"against the paper's {cal['target']['usum_mm']:g} mm ({pct(cal['rel_error'])}).")
+    evals = ", ".join(f"{e['value_mm']:.4g} mm -> {e['usum_mm']:.4f} mm" for e in cal["evaluations"])
+    if cal["status"] == "calibrated":
+        head = f"Calibrated: {keys} = {cal['value_mm']:.4g} mm gives USUM {cal['usum_mm']:.4f} mm (target 4.0 mm)."
+    else:
+        head = (f"No value of {cal['dimension']} ({keys}) in {cal['range_mm'][0]:g}-{cal['range_mm'][1]:g} mm reaches "
+                f"USUM = 4.0 mm at 4 cones, 1 N ({cal['status']}); the closest is {cal['usum_mm']:.4f} mm at "
+                f"{cal['value_mm']:.4g} mm ({pct(cal['rel_error'])}). Nothing was moved: every value is a prediction.")
+    return f"{head} Search: {evals}. {cal['why']}"
+

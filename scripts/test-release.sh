@@ -98,8 +98,16 @@ in_root() {
     PIP_EXTRA_INDEX_URL PIP_TRUSTED_HOST PIP_CERT PIP_DEFAULT_TIMEOUT SSL_CERT_FILE REQUESTS_CA_BUNDLE; do
     if [ -n "${!v:-}" ]; then envs+=("$v=${!v}"); fi
   done
-  unshare --mount --propagation private -- /bin/bash -euc '
+  # Local folders the host's pip configuration names (find-links, file:// indexes), read-only.
+  local pipdirs
+  pipdirs="$(cat /etc/pip.conf /etc/xdg/pip/*.conf /root/.config/pip/*.conf /root/.pip/*.conf 2>/dev/null |
+    grep -oE '(file://)?/[^[:space:]]+' | sed 's|^file://||; s|/simple/*$||' | sort -u |
+    while read -r d; do if [ -d "$d" ]; then echo "$d"; fi; done | tr '\n' ' ')"
+  PIPDIRS="$pipdirs" unshare --mount --propagation private -- /bin/bash -euc '
     r=$1; shift
+    for d in $PIPDIRS; do
+      mkdir -p "$r$d"; mount --bind "$d" "$r$d"; mount -o remount,bind,ro "$r$d"
+    done
     mount -t proc proc "$r/proc"
     mount -t sysfs -o ro sysfs "$r/sys"
     mount -t tmpfs -o mode=755,size=1m tmpfs "$r/dev"

@@ -124,7 +124,7 @@ def set_function_domain_error(snes: Any) -> bool:
     petsc4py 3.18 (Debian bookworm) has no ``SNES.setFunctionDomainError``; there the residual
     callback marks the state inadmissible by returning a huge finite residual (1e30 in every entry)
     instead, which the backtracking line search treats as a failed trial and shortens the step, and
-    which makes a full-step Newton diverge at once (DIVERGED_DTOL) so the step is retried (solver.py).
+    which makes a full-step Newton diverge at once (DIVERGED_DTOL) so the step is retried (solve/stepping.py).
     Returns True when the PETSc call was made.
     """
     fn = getattr(snes, "setFunctionDomainError", None)

@@ -45,7 +45,7 @@ EVERY_EFFECT = ["effects.inertia=true", "effects.incompressibility=mixed", "effe
 def run(label: str, overrides: list[str], tmp: Path) -> dict:
     """`suture-fem run paper` in a fresh process: results.json plus that process's wall and CPU time."""
     out = tmp / label.replace(" ", "_")
-    cmd = [sys.executable, "-m", "suture_fem.cli", "run", "paper", *[a for o in overrides for a in ("--set", o)],
+    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "run", "paper", *[a for o in overrides for a in ("--set", o)],
            "--out", str(out)]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()

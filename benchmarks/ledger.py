@@ -36,7 +36,7 @@ SUMMARY = ("usum_mm", "regions.tissue.seqv_pa", "regions.tissue.seqv_outside_rim
 
 def run_ladder(name: str, out: Path, redo: bool = False) -> dict:
     title, extra = LADDERS[name]
-    cmd = [sys.executable, "-m", "suture_fem.cli", "convergence", "paper", *extra, *COMMON,
+    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "convergence", "paper", *extra, *COMMON,
            "--title", title, "--out", str(out / name), *(["--redo"] if redo else [])]
     print(f"$ {' '.join(cmd[1:])}", flush=True)
     proc = subprocess.run(cmd, cwd=ROOT)

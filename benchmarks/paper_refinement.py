@@ -23,7 +23,7 @@ from suture_fem.support.io import write_json  # noqa: E402
 
 def run(refinement: int, extra: list[str]) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "suture_fem.cli", "run", "paper", "--set", f"mesh.refinement={refinement}",
+        cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "run", "paper", "--set", f"mesh.refinement={refinement}",
                "--out", tmp, *extra]
         proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
         if proc.returncode != 0:

@@ -51,7 +51,7 @@ def sets(overrides: list[str]) -> list[str]:
 
 def cli(args: list[str], *, ranks: int = 1, timeout: float | None = None) -> subprocess.CompletedProcess:
     """Run `suture-fem ARGS` in a fresh process (under mpirun when ranks > 1)."""
-    cmd = [PYTHON, "-m", "suture_fem.cli", *args]
+    cmd = [PYTHON, "-P", "-m", "suture_fem.cli", *args]  # -P: the current folder is not on the module path
     if ranks > 1:
         cmd = mpirun(ranks) + cmd
     return subprocess.run(cmd, capture_output=True, text=True, env=mpi_env(), cwd=ROOT, timeout=timeout)

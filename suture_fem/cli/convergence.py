@@ -4,7 +4,7 @@
     suture-fem ledger-rung SCENE [--set KEY=VALUE ...] --out DIR
 
 This module parses the arguments and calls the study (:mod:`suture_fem.studies.convergence`); every
-rung of a ledger runs ``python -m suture_fem.cli ledger-rung`` in its own process unless
+rung of a ledger runs ``python -P -m suture_fem.cli ledger-rung`` in its own process unless
 ``--inprocess`` or mpirun keeps it in this one. Exit codes: 0 every rung converged, 2 a bad scene or
 ladder (before any solve), 3 some rung did not converge.
 """
@@ -22,11 +22,11 @@ from suture_fem.studies.convergence.study import run_ledger
 from suture_fem.support.errors import SceneError
 
 
-def _int_list(text: str) -> list[int]:
+def _int_list(text: str, option: str) -> list[int]:
     try:
         return sorted({int(t) for t in text.split(",") if t.strip()})
     except ValueError:
-        raise SceneError(f"expected a comma-separated list of integers, got {text!r}") from None
+        raise SceneError(f"{option}: expected a comma-separated list of integers, got {text!r}") from None
 
 
 def _float_list(text: str) -> list[float]:
@@ -86,7 +86,7 @@ def rung_main(args: argparse.Namespace, comm: Any) -> int:
 def convergence_main(args: argparse.Namespace, comm: Any) -> int:
     """``suture-fem convergence``: check the ladder, solve it, write and summarise the ledger."""
     base = load_scene(args.scene, args.overrides)  # bad input stops here, before any solve
-    degrees, refinements = _int_list(args.degrees), _int_list(args.refinements)
+    degrees, refinements = _int_list(args.degrees, "--degrees"), _int_list(args.refinements, "--refinements")
     formulations = [f.strip() for f in args.formulations.split(",")] if args.formulations else None
     forces = _float_list(args.forces) if args.forces else None
     ladder = plan_ladder(base, args.scene, args.overrides, degrees, refinements, formulations, forces,

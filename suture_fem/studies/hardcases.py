@@ -168,7 +168,7 @@ def run_case(name: str, overrides: tuple[str, ...], out: Path, *, inprocess: boo
         code: int | None = _run_inprocess(overrides, out, comm)
     else:
         try:
-            code = subprocess.run([sys.executable, "-m", "suture_fem.cli", *args], capture_output=True,
+            code = subprocess.run([sys.executable, "-P", "-m", "suture_fem.cli", *args], capture_output=True,
                                   text=True, timeout=timeout_s).returncode
         except subprocess.TimeoutExpired:
             code = None

@@ -136,3 +136,102 @@ def test_the_mesh_estimate_is_close_to_gmsh_and_scales_with_refinement():
     assert 3.0 < fine.cells / coarse.cells < 4.5  # halving every size: about four times the cells
     with pytest.raises(SceneError, match="needing about"):
         check_fits(geometry, scene.mesh, memory_gib=0.01)
+
+
+# ----------------------------------------------------------------------------- the command line, in process
+
+def _cli(args, capsys):
+    """``suture-fem ARGS`` in this process: (exit code, its error lines); no traceback allowed."""
+    from suture_fem.cli.main import main
+
+    code = main(list(args))
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    return code, [line for line in err.splitlines() if line.startswith("suture-fem: error:")]
+
+
+# ----------------------------------------------------------------------------- B1: child processes
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_no_child_python_has_the_current_folder_on_its_module_path():
+    # B1: `python -m` puts the current folder first on sys.path, so an evil.py (or a folder named
+    # suture_fem) beside the scene would run in every rung; `python -P -m` does not.
+    offenders = []
+    for folder in ("suture_fem", "benchmarks", "tests"):
+        for path in (ROOT / folder).rglob("*.py"):
+            text = path.read_text()
+            for needle in ("sys.executable, " + '"-m"', "PYTHON, " + '"-m"'):
+                if needle in text:
+                    offenders.append(f"{path.relative_to(ROOT)}: {needle}")
+    assert offenders == []
+
+
+def test_python_dash_p_ignores_a_module_in_the_current_folder(tmp_path):
+    import subprocess
+    import sys
+
+    shadow = tmp_path / "suture_fem"
+    shadow.mkdir()
+    (shadow / "__init__.py").write_text(f"open({str(tmp_path / 'ran')!r}, 'w').write('evil')\n")
+    (shadow / "cli.py").write_text("")
+    proc = subprocess.run([sys.executable, "-P", "-m", "suture_fem.cli", "scenes"], cwd=tmp_path,
+                          capture_output=True, text=True)
+    assert proc.returncode == 0 and "paper" in proc.stdout
+    assert not (tmp_path / "ran").exists()
+
+
+# ----------------------------------------------------------------------------- B8-B11: sweep files
+
+def _sweep_error(tmp_path, content: bytes | str, name="s.toml"):
+    from suture_fem.studies.sweep import SweepError, load_sweep
+
+    path = tmp_path / name
+    path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    with pytest.raises(SweepError) as err:
+        load_sweep(path)
+    assert err.value.exit_code == 2 and "\n" not in str(err.value)
+    return str(err.value)
+
+
+def test_non_utf8_sweep_file(tmp_path):
+    text = 'base = "paper"\n# Stra\xdfe\n[grid]\n"geometry.cones" = [1, 2]\n'
+    assert "not UTF-8" in _sweep_error(tmp_path, text.encode("latin-1"))
+
+
+def test_sweep_file_nested_thousands_deep(tmp_path):
+    assert "nested too deeply" in _sweep_error(tmp_path, 'base = "paper"\nx = ' + "[" * 5000 + "]" * 5000 + "\n")
+
+
+def test_unreadable_sweep_file(tmp_path, monkeypatch):
+    def refuse(self):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "read_bytes", refuse)
+    assert "cannot be read: Permission denied" in _sweep_error(tmp_path, 'base = "paper"\n')
+
+
+def test_sweep_file_that_is_a_folder(tmp_path):
+    from suture_fem.studies.sweep import SweepError, load_sweep
+
+    with pytest.raises(SweepError, match="is a folder"):
+        load_sweep(tmp_path)
+
+
+def test_sweep_out_must_be_a_string(tmp_path, capsys):
+    # B11: `out = 5` was a TypeError traceback, exit 1
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('base = "paper"\nout = 5\n[grid]\n"geometry.cones" = [1, 2]\n')
+    code, err = _cli(["sweep", str(sweep)], capsys)
+    assert code == 2 and len(err) == 1 and "key out" in err[0] and "string" in err[0], err
+
+
+# ----------------------------------------------------------------------------- B15: an empty ladder
+
+@pytest.mark.parametrize("option", ["--degrees", "--refinements"])
+def test_convergence_with_an_empty_ladder_is_refused(option, tmp_path, capsys):
+    out = tmp_path / "ledger"
+    code, err = _cli(["convergence", "paper", option, "", "--out", str(out)], capsys)
+    assert code == 2 and len(err) == 1 and option in err[0], err
+    assert not out.exists()

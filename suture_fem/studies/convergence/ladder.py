@@ -101,7 +101,9 @@ def _sets(overrides: Sequence[str]) -> list[str]:
 
 def _run_subprocess(source: str, rung: Rung, folder: Path) -> dict[str, Any] | None:
     """`suture-fem ledger-rung` in a child process; its own peak memory from os.wait4."""
-    cmd = [sys.executable, "-m", "suture_fem.cli", "ledger-rung", source, *_sets(rung.overrides), "--out", str(folder)]
+    # -P: the current folder is not on the child's module path (a stray .py there must not run)
+    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "ledger-rung", source, *_sets(rung.overrides),
+           "--out", str(folder)]
     t0 = time.perf_counter()
     with open(folder / "run.log", "w") as logfile:
         proc = subprocess.Popen(cmd, stdout=logfile, stderr=subprocess.STDOUT)
@@ -259,6 +261,9 @@ def plan_ladder(base: Scene, source: str, overrides: Sequence[str], degrees: Seq
     :data:`FORMULATION_KEY`, every force one the ramp reports (``loading.report_forces_n`` or
     ``loading.force_n``; default: all of them). Raises SceneError otherwise.
     """
+    for option, values in (("--degrees", degrees), ("--refinements", refinements)):
+        if not values:
+            raise SceneError(f"{option}: expected at least one value, for example {option} 1,2 (got none)")
     for d in degrees:
         RULES["mesh.degree"].check("mesh.degree", d)
     for k in refinements:

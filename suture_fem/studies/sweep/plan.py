@@ -29,14 +29,13 @@ import hashlib
 import itertools
 import json
 import shlex
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from suture_fem.pipeline import load_scene
 from suture_fem.scene import Scene
-from suture_fem.scene.load import read_scene_source
+from suture_fem.scene.load import parse_toml, read_scene_source, read_text_file
 from suture_fem.support.errors import SceneError
 
 SWEEP_KEYS = ("base", "out", "set", "grid", "scenes")
@@ -125,12 +124,7 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
     with its error (it is recorded, not raised).
     """
     path = Path(path)
-    if not path.is_file():
-        raise SweepError(f"sweep file {str(path)!r} does not exist")
-    try:
-        raw = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepError(f"sweep file {path}: not valid TOML: {exc}") from None
+    raw = _read(path)
     unknown = sorted(set(raw) - set(SWEEP_KEYS))
     if unknown:
         raise SweepError(f"sweep file {path}: unknown key {unknown[0]} (allowed: {', '.join(SWEEP_KEYS)})")
@@ -155,6 +149,9 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
         variations = [_flatten(t, f"sweep file {path}: scene {i}") for i, t in enumerate(raw["scenes"])]
     common = [f"{k}={toml_value(v)}" for k, v in _flatten(raw.get("set", {}), f"sweep file {path}: [set]").items()]
     common += list(extra or [])
+    if not isinstance(raw.get("out", ""), str):
+        raise SweepError(f"sweep file {path}: key out: expected a folder path as a string, "
+                         f"for example out = \"results/{path.stem}\" (got {raw['out']!r})")
     out_dir = Path(out) if out is not None else Path(raw.get("out") or f"results/{path.stem}")
     try:
         base_scene, _ = read_scene_source(base)
@@ -163,6 +160,20 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
     cases = [_case(i, base, base_scene, common, v) for i, v in enumerate(variations)]
     varied_keys = list(dict.fromkeys(k for c in cases for k in c.varied))
     return Sweep(path=path, base=base, out=out_dir, cases=cases, varied_keys=varied_keys)
+
+
+def _read(path: Path) -> dict[str, Any]:
+    """The sweep file's TOML, read like a scene file (SweepError in one line otherwise).
+
+    A missing, unreadable or non-UTF-8 file, invalid TOML or tables nested too deeply: one line each.
+    """
+    where = f"sweep file {str(path)!r}"
+    try:
+        return parse_toml(read_text_file(path, where), where)
+    except SweepError:
+        raise
+    except SceneError as exc:
+        raise SweepError(str(exc)) from None
 
 
 def _case(index: int, base: str, base_scene: dict[str, Any], common: list[str], varied: dict[str, Any]) -> Case:

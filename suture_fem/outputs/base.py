@@ -161,7 +161,7 @@ class State:
     def __init__(self, setup: Setup):
         self.setup = setup
         self.comm = setup.physics.comm
-        self.force_n = float(setup.physics.traction.value) * setup.physics.pull_area
+        self.force_n = setup.physics.applied_force_n()
         self._cache: dict[tuple[str, str], Any] = {}
 
     def von_mises(self, region: str) -> np.ndarray:

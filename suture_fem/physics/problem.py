@@ -15,6 +15,12 @@ Which terms exist is decided by :mod:`suture_fem.physics.effects`: an effect a s
 never built (``Physics.terms`` names what was built; :meth:`Physics.effects_record` says what was not
 and why).
 
+Parameters. Every numeric material constant, ``materials.tissue_scale``, ``loading.force_scale`` and
+the traction are dolfinx Constants (``Physics.parameters`` by scene key), so solving the same mesh at
+another parameter value sets a Constant and compiles no new form (:meth:`Physics.set_parameter`), and
+the residual's derivative with respect to a parameter is a form of its own
+(:meth:`Physics.parameter_derivative`, for sensitivities by the direct method).
+
 Unknowns. ``state`` is the unknown Function: the displacement, or (mixed) displacement and pressure.
 ``u`` is always the displacement alone (a view of ``state`` in the mixed case, kept in sync by
 :meth:`Physics.sync`), so outputs and the domain guard never see the pressure. What SNES solves for is
@@ -54,7 +60,7 @@ from suture_fem.physics.effects import (
     strain_energy,
 )
 from suture_fem.physics.forms import FormContext, Terms, measures, pull_term
-from suture_fem.physics.materials import Material, from_params
+from suture_fem.physics.materials import Material, with_constants
 from suture_fem.scene.model import MaterialsSection, Scene
 from suture_fem.scene.schema import EffectsSection
 from suture_fem.support import compat
@@ -80,6 +86,8 @@ class Physics:
         u_in_state: where ``u``'s dofs sit in ``state`` (mixed; None otherwise).
         rigid_displacement: the rigid suture's axial motion d (a Constant; None with an elastic suture).
         notes: effect -> the numbers the ``effects`` record reports for it.
+        parameters: scene key -> its dolfinx Constant (every material constant, ``materials.tissue_scale``,
+            ``loading.force_scale``).
     """
 
     tagged: meshmod.TaggedMesh
@@ -108,7 +116,9 @@ class Physics:
     u_in_state: np.ndarray | None = None
     rigid_displacement: Any = None
     notes: dict[str, dict[str, Any]] = field(default_factory=dict)
+    parameters: dict[str, Any] = field(default_factory=dict)
     _compiled: dict[str, Any] = field(default_factory=dict, repr=False)
+    _derivatives: dict[str, Any] = field(default_factory=dict, repr=False)
 
     def form(self, name: str) -> Any:
         """The compiled dolfinx form of attribute `name` (residual, jacobian, energy, ...), compiled once."""
@@ -130,9 +140,36 @@ class Physics:
         """The mesh's communicator."""
         return self.tagged.mesh.comm
 
+    def set_parameter(self, key: str, value: float) -> None:
+        """Set a parameter's Constant (a key of ``parameters``): the next assembly uses the new value."""
+        self.parameters[key].value = value
+
+    def parameter_derivative(self, key: str) -> Any:
+        """The compiled form of dR/dp for the parameter ``key`` (a vector form), compiled once.
+
+        UFL 2022 cannot differentiate with respect to a Constant, so the Constant is replaced in the
+        residual by a cellwise-constant Function holding the same value, and the residual is
+        differentiated with respect to that Function in the direction of the unit function: the
+        exact partial derivative. The Function's value follows the Constant's at each call.
+        """
+        if key not in self._derivatives:
+            Q = dolfinx.fem.FunctionSpace(self.mesh, ("DG", 0))
+            value, one = dolfinx.fem.Function(Q), dolfinx.fem.Function(Q)
+            one.x.array[:] = 1.0
+            replaced = ufl.replace(self.residual, {self.parameters[key]: value})
+            self._derivatives[key] = (dolfinx.fem.form(ufl.derivative(replaced, value, one)), value)
+        form, value = self._derivatives[key]
+        value.x.array[:] = float(self.parameters[key].value)
+        return form
+
     def traction_for(self, force_n: float) -> float:
         """Traction (Pa) whose 2 pi r-weighted integral over the pulled face is force_n."""
         return force_n / self.pull_area
+
+    def applied_force_n(self) -> float:
+        """The axial force the pull applies now (N): the nominal force times ``loading.force_scale``."""
+        scale = float(self.parameters["loading.force_scale"].value) if self.parameters else 1.0
+        return float(self.traction.value) * self.pull_area * scale
 
     def set_force(self, force_n: float) -> None:
         """Set the traction on the pulled face to that of the axial force force_n (N)."""
@@ -207,8 +244,8 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     degree = scene.mesh.degree
     spaces = _Spaces.of(tagged.mesh, degree, effects.mixed)
     dynamics = Dynamics(spaces.W, scene.effects) if effects.inertia else None
-    ctx = _context(tagged, scene.materials, spaces, degree, effects.mixed, dynamics)
-    terms, traction, gravity_factor = _terms(ctx, effects, scene.effects, dynamics)
+    ctx, parameters = _context(tagged, scene, spaces, degree, effects.mixed, dynamics)
+    terms, traction, gravity_factor = _terms(ctx, effects, scene.effects, dynamics, parameters["loading.force_scale"])
     residual, jacobian = terms.residual_and_jacobian(ctx)
     constraints = _constraints(tagged, effects, spaces)
     u = spaces.u
@@ -241,6 +278,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         u_in_state=spaces.u_in_state,
         rigid_displacement=constraints.rigid_displacement,
         notes=_notes(tagged, effects, scene.effects, dynamics, constraints.notes),
+        parameters=parameters,
     )
 
 
@@ -251,10 +289,28 @@ def _displacement_of(mixed: bool) -> Callable[[Any], Any]:
     return lambda w: w
 
 
-def _context(tagged: meshmod.TaggedMesh, materials: MaterialsSection, spaces: _Spaces, degree: int, mixed: bool,
-             dynamics: Dynamics | None) -> FormContext:
-    """Test functions, coordinates, measures, materials and the regions present: what the effects write with."""
+def _materials(mesh: Any, materials: MaterialsSection) -> tuple[dict[str, Material], dict[str, Any]]:
+    """Every region's material on Constants, and the Constants by scene key (the tissue scale's among them)."""
+    scale = dolfinx.fem.Constant(mesh, PETSc.ScalarType(materials.tissue_scale))
+    parameters: dict[str, Any] = {"materials.tissue_scale": scale}
+    out: dict[str, Material] = {}
+    for region in sorted(REGIONS):
+        tissue = region in regions.TISSUE_REGIONS
+        out[region], consts = with_constants(materials.of(region), mesh, scale if tissue else 1.0)
+        parameters.update({f"materials.{region}.{name}": c for name, c in consts.items()})
+    return out, parameters
+
+
+def _context(tagged: meshmod.TaggedMesh, scene: Scene, spaces: _Spaces, degree: int, mixed: bool,
+             dynamics: Dynamics | None) -> tuple[FormContext, dict[str, Any]]:
+    """The form context and the parameters' Constants by scene key.
+
+    The context is what the effects write with: test functions, coordinates, measures, materials, the
+    regions present.
+    """
     mesh = tagged.mesh
+    materials, parameters = _materials(mesh, scene.materials)
+    parameters["loading.force_scale"] = dolfinx.fem.Constant(mesh, PETSc.ScalarType(scene.loading.force_scale))
     test = ufl.TestFunction(spaces.W)
     x = ufl.SpatialCoordinate(mesh)
     dx, ds = measures(mesh, tagged.cell_tags, tagged.facet_tags, degree)
@@ -264,20 +320,23 @@ def _context(tagged: meshmod.TaggedMesh, materials: MaterialsSection, spaces: _S
         w=spaces.state, u=displacement(w_eval), p=w_eval[2] if mixed else None,
         v=displacement(test), q=test[2] if mixed else None, test=test,
         x=x, weight=kinematics.volume_weight(x), dx=dx, ds=ds,
-        materials={region: from_params(materials.of(region)) for region in sorted(REGIONS)},
+        materials=materials,
         region_tags=_region_tags(tagged),
         scale=dynamics.scale if dynamics is not None else 1.0,
-    )
+    ), parameters
 
 
 def _terms(ctx: FormContext, effects: Effects, section: EffectsSection,
-           dynamics: Dynamics | None) -> tuple[Terms, Any, Any]:
-    """The terms of every called effect, and the load parameters: (terms, traction, gravity factor or None)."""
+           dynamics: Dynamics | None, force_scale: Any) -> tuple[Terms, Any, Any]:
+    """The terms of every called effect, and the load parameters: (terms, traction, gravity factor or None).
+
+    The pull's traction is ``traction * force_scale``: the load stepping sets the nominal traction.
+    """
     mesh = ctx.w.function_space.mesh
     terms = Terms()
     elastic_terms(ctx, effects, terms)
     traction = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
-    pull_term(ctx, traction, regions.Facet.PULL_FACE, terms)
+    pull_term(ctx, traction * force_scale, regions.Facet.PULL_FACE, terms)
     gravity_factor = None
     if effects.gravity:
         gravity_factor = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))

@@ -191,7 +191,7 @@ def merge(base: dict[str, Any], overlay: dict[str, Any], where: str) -> dict[str
     known = list(_flatten(base))
     merged = copy.deepcopy(base)
     for key, value in _flatten(overlay).items():
-        if key.startswith("materials."):
+        if key.startswith("materials.") and key not in RULES:
             region = key.split(".")[1] if key.count(".") >= 2 else None
             if region not in REGIONS:
                 raise SceneError(f"{where}: scene key {key}: unknown region (one of {', '.join(REGIONS)})")

@@ -38,12 +38,13 @@ class MaterialSpec:
 
 @dataclass(frozen=True)
 class MaterialsSection:
-    """``[materials.*]``: one :class:`MaterialSpec` per material region."""
+    """``[materials.*]``: one :class:`MaterialSpec` per material region, and ``tissue_scale``."""
 
     hypodermis: MaterialSpec
     dermis: MaterialSpec
     epidermis: MaterialSpec
     suture: MaterialSpec
+    tissue_scale: float = 1.0
 
     def of(self, region: str) -> MaterialSpec:
         """The material of a region by name (``hypodermis``, ``dermis``, ``epidermis``, ``suture``)."""
@@ -89,7 +90,7 @@ class Scene:
             r: MaterialSpec(data["materials"][r]["model"],
                             Params.of({k: v for k, v in data["materials"][r].items() if k != "model"}))
             for r in REGIONS
-        })
+        }, tissue_scale=float(data["materials"].get("tissue_scale", 1.0)))
         sections = {name: _section(kind, data[name]) for name, kind in SECTIONS.items()}
         return cls(materials=materials, **sections)
 
@@ -99,7 +100,7 @@ class Scene:
         for name in ("geometry", "mesh", "materials", "loading", "solver", "output", "effects"):
             section = getattr(self, name)
             if name == "materials":
-                out[name] = {r: section.of(r).as_dict() for r in REGIONS}
+                out[name] = {"tissue_scale": section.tissue_scale, **{r: section.of(r).as_dict() for r in REGIONS}}
             else:
                 out[name] = {f.name: _plain(getattr(section, f.name)) for f in fields(section)}
         return out

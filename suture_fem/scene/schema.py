@@ -182,6 +182,7 @@ class LoadingSection:
     """``[loading]``: the pull force, where it is reported, and its time course."""
 
     force_n: float = key(_pos(1000.0), N)
+    force_scale: float = key(_pos(100.0))
     report_forces_n: tuple[float, ...] = key(Rule("floats", lo=0.0, hi=1000.0, lo_open=True), N)
     ramp_s: float = key(_pos(1e6), S)
     hold_s: float = key(_pos(1e6, lo_open=False), S)
@@ -248,9 +249,14 @@ SECTIONS: dict[str, type] = {
     "effects": EffectsSection,
 }
 
+#: The ``[materials]`` keys that are not a region's table: ``tissue_scale`` multiplies every tissue
+#: constant (c10, c20, ..., mu, the volumetric 1/d) of the three tissue layers (not Gent's jm, not the suture).
+MATERIAL_KEYS: dict[str, Rule] = {"tissue_scale": _pos(1000.0)}
+
 #: Rules for every fixed key, by dotted name (derived from the declarations above).
 RULES: dict[str, Rule] = {
-    f"{name}.{f.name}": f.metadata["rule"] for name, cls in SECTIONS.items() for f in fields(cls)
+    **{f"{name}.{f.name}": f.metadata["rule"] for name, cls in SECTIONS.items() for f in fields(cls)},
+    **{f"materials.{name}": rule for name, rule in MATERIAL_KEYS.items()},
 }
 #: Unit of every fixed key that has one.
 UNITS: dict[str, str] = {

@@ -33,8 +33,7 @@ def mixed_tissue_terms(ctx: FormContext, region: str, F: Any, terms: Terms) -> N
 
 def pressure_equation(mat: Any, J: Any, p: Any) -> Any:
     """(U'(J) - p) / K0, or J - 1 for an incompressible material (1/d = 0)."""
-    K0 = mat.bulk_modulus
-    if K0 == 0.0:
+    if mat.bulk_modulus == 0.0:
         return J - 1
     Jv = ufl.variable(J)
-    return (ufl.diff(mat.volumetric(Jv), Jv) - p) / K0
+    return (ufl.diff(mat.volumetric(Jv), Jv) - p) / mat.bulk_modulus_form()

@@ -1,11 +1,12 @@
 """The ``suture-fem`` command line.
 
-    suture-fem run SCENE [--set KEY=VALUE ...] [--out DIR] [--fields]
+    suture-fem run SCENE [--set KEY=VALUE ...] [--out DIR] [--fields] [--no-pictures]
     suture-fem mesh SCENE [--set KEY=VALUE ...] [--out FILE.msh]
     suture-fem scenes                      list the built-in scenes
     suture-fem show SCENE [--set ...]      print the fully resolved scene as JSON
 
-Exit codes: 0 success, 2 bad scene or arguments, 3 a solve that stopped with a diagnosis.
+Exit codes: 0 success, 1 a failure (e.g. a full disk), 2 bad scene or arguments, 3 a solve that
+stopped with a diagnosis, 130 interrupted (Ctrl-C, SIGINT), 143 terminated (SIGTERM).
 Under mpirun every rank runs the same command; logs and files come from rank 0 only.
 """
 
@@ -14,17 +15,20 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import signal
 import sys
+import threading
 from pathlib import Path
 from typing import Any
 
-from suture_fem.support.errors import SutureFemError
+from suture_fem.support.errors import Interrupted, SutureFemError
 from suture_fem.support.logging import setup_logging
 
 #: Modules that add a subcommand: each has ``register(subparsers, scene_args)``, which adds its
 #: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
 COMMAND_MODULES: tuple[str, ...] = ("suture_fem.cli.sweep", "suture_fem.cli.convergence",
-                                     "suture_fem.cli.reproduce", "suture_fem.cli.maxload")
+                                     "suture_fem.cli.reproduce", "suture_fem.cli.maxload",
+                                     "suture_fem.cli.calibrate")
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:
@@ -43,6 +47,8 @@ def build_parser() -> argparse.ArgumentParser:
     _scene_args(p)
     p.add_argument("--out", default=None, help="output folder (default: results/<scene name>)")
     p.add_argument("--fields", action="store_true", help="also write XDMF fields (same as --set output.fields=true)")
+    p.add_argument("--no-pictures", action="store_true",
+                   help="do not draw usum.png and force_displacement.png beside results.json")
     p.add_argument("--error-estimate", action="store_true",
                    help="solve once more one refinement coarser and attach 'USUM = x mm +- y' "
                    "(see suture_fem/studies/convergence/estimate.py)")
@@ -71,8 +77,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     setup_logging(comm, args.verbose)
+    previous = _catch_signals()
     try:
         return _dispatch(args, comm)
+    except Interrupted as exc:
+        if comm.rank == 0:
+            print(f"suture-fem: interrupted ({exc.name}); results.json keeps the last converged step", file=sys.stderr)
+        return exc.exit_code
     except SutureFemError as exc:
         if comm.rank == 0:
             print(f"suture-fem: error: {exc}", file=sys.stderr)
@@ -87,6 +98,28 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr, flush=True)
         comm.Abort(1)
         raise
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if previous and "gmsh" in sys.modules:
+            sys.modules["gmsh"].oldsig = previous[signal.SIGINT]
+
+
+def _raise_interrupted(signum: int, frame: Any) -> None:
+    raise Interrupted(signum)
+
+
+def _catch_signals() -> dict[int, Any]:
+    """SIGINT and SIGTERM raise Interrupted (results.json then says "interrupted"); returns the old handlers."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    import gmsh
+    from petsc4py import PETSc  # noqa: F401  (PETSc's initialisation sets its own handlers: ours come after)
+
+    # gmsh sets SIGINT to its default at import and restores the handler it found then at every
+    # gmsh.finalize(): make that ours, so Ctrl-C after meshing still ends the run cleanly
+    gmsh.oldsig = _raise_interrupted
+    return {s: signal.signal(s, _raise_interrupted) for s in (signal.SIGINT, signal.SIGTERM)}
 
 
 def _dispatch(args: argparse.Namespace, comm: Any) -> int:
@@ -108,41 +141,43 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
             print(json.dumps(scene.as_dict(), indent=2))
         return 0
     if args.command == "mesh":
-        from suture_fem.geometry.mesh import write_msh
+        from suture_fem.geometry.mesh import check_msh_path, write_msh
 
-        path = Path(args.out or f"meshes/{_scene_name(args.scene)}.msh")
+        path = check_msh_path(args.out or f"meshes/{_scene_name(args.scene)}.msh")
         if comm.rank == 0:
             path.parent.mkdir(parents=True, exist_ok=True)
             record = write_msh(scene.geometry, scene.mesh, path)
             print(f"suture-fem: wrote {path} ({record['triangles']} triangles) and {path.with_suffix('.json')}")
         return 0
     if args.command == "run":
-        from suture_fem.pipeline import run_scene
-
-        out = Path(args.out or f"results/{_scene_name(args.scene)}")
-        results = run_scene(scene, out, comm)
-        if args.error_estimate:
-            from suture_fem.studies.convergence.estimate import attach_error_estimate
-
-            results = attach_error_estimate(scene, results, comm, out)
-        if comm.rank == 0:
-            print(_summary(results, out))
-        return 0
+        return _run(args, scene, comm)
     raise AssertionError(args.command)
 
 
-def _summary(results: dict[str, Any], out: Path) -> str:
-    lines = [f"suture-fem: results in {out / 'results.json'}"]
-    for rec in results["at_forces"]:
-        asked = [f"{name} = {rec[key]:.4g}{unit}" for name, key, unit in
-                 (("USUM", "usum_mm", " mm"), ("SEQV", "seqv_pa", " Pa"), ("EPTOEQV", "eptoeqv", "")) if key in rec]
-        lines.append(  # only the quantities the scene asked for (output.quantities)
-            f"  F = {rec['force_n']:.3g} N: {', '.join(asked)}, thread end {rec['thread_end_displacement_mm']:.4g} mm, "
-            f"reaction {rec['reaction_force_n']:.6g} N"
-        )
-    if "error_estimate" in results:
-        lines.append(f"  {results['error_estimate'].get('usum_text', 'no error estimate')}")
-    return "\n".join(lines)
+def _run(args: argparse.Namespace, scene: Any, comm: Any) -> int:
+    """``suture-fem run``: solve, draw the pictures (unless --no-pictures), print the answer."""
+    from suture_fem.cli.run_report import Pictures, summary
+    from suture_fem.pipeline import run_scene
+    from suture_fem.support.errors import SolveStopped
+    from suture_fem.support.io import read_json
+
+    name = _scene_name(args.scene)
+    out = Path(args.out or f"results/{name}")
+    pictures = None if args.no_pictures else Pictures(out, comm)
+    try:
+        results = run_scene(scene, out, comm, on_report=pictures.on_report if pictures else None)
+    except SolveStopped:
+        if pictures is not None and comm.rank == 0:  # the converged part, drawn before the diagnosis
+            pictures.draw(read_json(out / "results.json"), name)
+        raise
+    if args.error_estimate:
+        from suture_fem.studies.convergence.estimate import attach_error_estimate
+
+        results = attach_error_estimate(scene, results, comm, out)
+    written = pictures.draw(results, name) if pictures is not None else []
+    if comm.rank == 0:
+        print(summary(results, out, written))
+    return 0
 
 
 if __name__ == "__main__":

@@ -1,0 +1,168 @@
+"""The model side of a calibration: predictions at the measured forces and their sensitivities.
+
+One :class:`Case` is one mesh (a cone count and the geometric values) with its physics built once;
+every evaluation at new parameter values sets the parameters' Constants, starts from rest and
+follows one load ramp that stops at every measured force (no form is compiled again). At each
+measured force the prediction (the thread end's displacement, or USUM) is read, and its sensitivity to
+every parameter that is a Constant of the forms is computed by the direct method
+(:mod:`suture_fem.studies.calibrate.sensitivity`). A geometric key changes the mesh: its sensitivity
+is a central finite difference over two remeshed solves (:class:`Model`).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.physics.problem import build_physics
+from suture_fem.scene import Scene
+from suture_fem.solve.stepping import ramp
+from suture_fem.studies.calibrate.data import Point
+from suture_fem.studies.calibrate.keys import FitKey
+from suture_fem.studies.calibrate.sensitivity import Sensitivity
+from suture_fem.studies.reproduce.solve import with_values
+
+log = logging.getLogger("suture_fem")
+
+#: Relative step of the central finite difference of a geometric key. Each side is a new mesh, whose
+#: discretisation error differs from the other side's by a small amount unrelated to h; a 2 % step
+#: keeps that noise well below the difference itself on the coarse meshes a calibration uses.
+FD_STEP = 0.02
+#: Meshes kept built (the current point and its finite-difference neighbours).
+KEEP_CASES = 6
+
+
+@dataclass
+class Cost:
+    """What the calibration's evaluations cost: ramps, Newton iterations, factorisations, time."""
+
+    evaluations: int = 0
+    ramps: int = 0
+    meshes: int = 0
+    newton_iterations: int = 0
+    load_steps: int = 0
+    sensitivity_factorisations: int = 0
+    wall_time_s: float = 0.0
+    cpu_time_s: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        """The ``cost`` record of calibration.json."""
+        return {k: (round(v, 3) if isinstance(v, float) else v) for k, v in self.__dict__.items()}
+
+
+class Case:
+    """One mesh with its physics built once; solved from rest at any values of the Constant parameters."""
+
+    def __init__(self, scene: Scene, comm: Any, cost: Cost):
+        """Mesh and physics of ``scene`` (its cone count and geometry)."""
+        self.scene, self.comm, self.cost = scene, comm, cost
+        tagged = meshmod.create_mesh(comm, scene.geometry, scene.mesh)
+        self.physics = build_physics(tagged, scene)
+        self.sensitivity = Sensitivity(self.physics)
+        cost.meshes += 1
+
+    def solve(self, values: dict[str, float], forces: list[float], quantity: str,
+              direct: list[str]) -> tuple[np.ndarray, np.ndarray]:
+        """Predictions at ``forces`` (mm) and their derivatives with respect to the ``direct`` keys.
+
+        Returns (y, dy) with y[i] at forces[i] and dy[i, j] = dy_i / d(direct[j]).
+        """
+        physics = self.physics
+        for key, value in values.items():
+            physics.set_parameter(key, value)
+        physics.state.x.array[:] = 0.0
+        physics.sync()
+        if physics.rigid_displacement is not None:
+            physics.rigid_displacement.value = 0.0
+        scene = with_values(self.scene, {"loading.force_n": max(forces), "loading.report_forces_n": sorted(forces)})
+        at: dict[float, tuple[float, np.ndarray]] = {}
+
+        def on_converged(force_n: float, report: bool, time_s: float | None = None) -> None:
+            if report:
+                at[round(force_n, 9)] = self.sensitivity.at_state(quantity, direct)
+                self.cost.sensitivity_factorisations += 1 if direct else 0
+
+        result = ramp(physics, scene, on_converged)
+        self.cost.ramps += 1
+        self.cost.newton_iterations += result.newton_iterations
+        self.cost.load_steps += len(result.steps)
+        y = np.array([at[round(f, 9)][0] for f in forces])
+        dy = np.array([at[round(f, 9)][1] for f in forces]).reshape(len(forces), len(direct))
+        return y, dy
+
+
+@dataclass
+class Model:
+    """Predictions of every data point and their Jacobian with respect to the fitted keys.
+
+    Attributes:
+        scene: the base scene; points: the data; keys: the fitted keys; comm: the communicator.
+    """
+
+    scene: Scene
+    points: list[Point]
+    keys: list[FitKey]
+    comm: Any
+    cost: Cost = field(default_factory=Cost)
+    history: list[dict[str, Any]] = field(default_factory=list)
+    _cases: OrderedDict = field(default_factory=OrderedDict)
+
+    def groups(self) -> dict[int | None, list[int]]:
+        """Data indices by cone count (None: the scene's own), each group solved by one ramp."""
+        out: dict[int | None, list[int]] = {}
+        for i, p in enumerate(self.points):
+            out.setdefault(p.cones, []).append(i)
+        return out
+
+    def _case(self, cones: int | None, geometric: dict[str, float]) -> Case:
+        values = {**geometric, **({"geometry.cones": cones} if cones is not None else {}), "output.fields": False}
+        ident = tuple(sorted((k, float(v)) for k, v in values.items()))
+        if ident not in self._cases:
+            self._cases[ident] = Case(with_values(self.scene, values), self.comm, self.cost)
+            while len(self._cases) > KEEP_CASES:
+                self._cases.popitem(last=False)
+        self._cases.move_to_end(ident)
+        return self._cases[ident]
+
+    def predict(self, theta: np.ndarray, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """(y, J): every prediction at parameter values ``theta`` and dy/dtheta (zeros when not asked)."""
+        t0, c0 = time.perf_counter(), time.process_time()
+        values = dict(zip((k.key for k in self.keys), map(float, theta)))
+        direct = [k.key for k in self.keys if not k.geometric] if jacobian else []
+        geometric = {k.key: values[k.key] for k in self.keys if k.geometric}
+        constants = {k: v for k, v in values.items() if k not in geometric}
+        y = np.zeros(len(self.points))
+        J = np.zeros((len(self.points), len(self.keys)))
+        for cones, idx in self.groups().items():
+            forces = [self.points[i].force_n for i in idx]
+            quantity = self.points[idx[0]].quantity
+            yc, dyc = self._case(cones, geometric).solve(constants, forces, quantity, direct)
+            y[idx] = yc
+            for j, key in enumerate(self.keys):
+                if key.key in direct:
+                    J[idx, j] = dyc[:, direct.index(key.key)]
+                elif jacobian:
+                    J[idx, j] = self._difference(cones, geometric, constants, key.key, forces, quantity)
+        self.cost.evaluations += 1
+        self.cost.wall_time_s += time.perf_counter() - t0
+        self.cost.cpu_time_s += time.process_time() - c0
+        self.history.append({"values": values, "predictions_mm": y.tolist()})
+        log.info("calibration: %s -> %s mm", ", ".join(f"{k} = {v:.6g}" for k, v in values.items()),
+                 ", ".join(f"{v:.4f}" for v in y))
+        return y, J
+
+    def _difference(self, cones: int | None, geometric: dict[str, float], constants: dict[str, float], key: str,
+                    forces: list[float], quantity: str) -> np.ndarray:
+        """Central finite difference of the predictions with respect to a geometric key (two remeshed solves)."""
+        h = FD_STEP * geometric[key]
+        sides = []
+        for sign in (1, -1):
+            case = self._case(cones, {**geometric, key: geometric[key] + sign * h})
+            sides.append(case.solve(constants, forces, quantity, [])[0])
+        return (sides[0] - sides[1]) / (2 * h)

@@ -1,0 +1,68 @@
+"""The calibration's Markdown report and its picture (data with error bars, the fitted curve and its band)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def _g(v: float) -> str:
+    return f"{v:.4g}"
+
+
+def markdown(rec: dict[str, Any]) -> str:
+    """calibration.md: the parameters with their intervals, the verdict, the residuals, the cost."""
+    lines = ["# Calibration", "", f"Fit: {rec['status']} ({rec['message']}).", "",
+             "| parameter | value | 95 % interval | bounds | sensitivity |", "| --- | --- | --- | --- | --- |"]
+    for key, p in rec["parameters"].items():
+        flag = " (at a bound)" if p["at_bound"] else ""
+        lines.append(f"| `{key}` | {_g(p['value'])}{flag} | [{_g(p['ci95'][0])}, {_g(p['ci95'][1])}] | "
+                     f"[{_g(p['bounds'][0])}, {_g(p['bounds'][1])}] | {p['sensitivity']} |")
+    ident = rec["identifiability"]
+    lines += ["", f"Intervals from {rec['uncertainty_from']}; linearised (Gauss-Newton) at the optimum.", "",
+              f"Identifiability: {ident['verdict']}.", ""]
+    names = list(rec["parameters"])
+    if len(names) > 1:
+        lines += ["Correlation:", "", "| | " + " | ".join(f"`{n}`" for n in names) + " |",
+                  "| --- |" + " --- |" * len(names)]
+        for n, row in zip(names, rec["correlation"]):
+            lines.append(f"| `{n}` | " + " | ".join(f"{c:+.3f}" for c in row) + " |")
+        lines.append("")
+    lines += ["| data | force | measured | model | residual |", "| --- | --- | --- | --- | --- |"]
+    for d, y, r in zip(rec["data"], rec["predictions_mm"], rec["residuals_mm"]):
+        lines.append(f"| {d['label']} | {d['force_n']:g} N | {d['value_mm']:g} mm | {y:.4f} mm | {r:+.4f} mm |")
+    c = rec["cost"]
+    lines += ["", f"Cost: {c['evaluations']} evaluations, {c['ramps']} load ramps, {c['meshes']} meshes, "
+                  f"{c['newton_iterations']} Newton iterations, {c['sensitivity_factorisations']} sensitivity "
+                  f"factorisations, {c['cpu_time_s']:.0f} s CPU ({c['total_wall_time_s']:.0f} s wall).", ""]
+    return "\n".join(lines)
+
+
+def picture(rec: dict[str, Any], path: Path) -> Path:
+    """The data with their error bars, the fitted curve and its 95 % band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for curve in rec.get("curve", []):
+        f, y, h = (np.array(curve[k]) for k in ("force_n", "model_mm", "band95_mm"))
+        label = f"model ({curve['cones']} cones)" if curve["cones"] is not None else "model"
+        line, = ax.plot(f, y, label=label)
+        ax.fill_between(f, y - h, y + h, color=line.get_color(), alpha=0.25)
+    sigma = rec.get("sigma_mm")
+    for d in rec["data"]:
+        err = d["sd_mm"] if d["sd_mm"] is not None else (sigma if sigma is not None else d["resolution_mm"] / 2)
+        ax.errorbar(d["force_n"], d["value_mm"], yerr=err, fmt="o", color="k", capsize=3)
+    quantity = rec["data"][0]["quantity"]
+    ax.set_xlabel("force (N)")
+    ax.set_ylabel("USUM (mm)" if quantity == "usum_mm" else "thread end displacement (mm)")
+    ax.set_title("data (error bars) and the fitted model with its 95 % band", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

@@ -1,0 +1,128 @@
+"""Sensitivities by the direct method: du/dp = -A^-1 dR/dp at a converged state.
+
+R(u; p) = 0 at every converged state, so dR/du du/dp + dR/dp = 0. dR/dp is the residual's exact
+partial derivative with respect to the parameter's Constant
+(:meth:`~suture_fem.physics.problem.Physics.parameter_derivative`); A = dR/du is the Jacobian. Both
+act on the unknowns SNES solves for (u = T x, :class:`~suture_fem.solve.reduction.Reduction`), so the
+fixed dofs stay fixed. The Newton solver's own factorisation is not reachable after its ramp step
+returns (the load stepping owns and destroys the solver), so A is assembled once more at the
+converged state and factorised once (MUMPS LU) for all parameters of that state.
+
+From du/dp: the thread end's displacement is a linear functional of u (the same form, evaluated at
+du/dp); USUM is max |u_i| over the nodes, whose derivative at its node i* is u_i* . du_i*/dp / |u_i*|.
+"""
+
+from __future__ import annotations
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from suture_fem.geometry.regions import MM
+from suture_fem.physics.problem import Physics
+from suture_fem.solve.reduction import Reduction
+from suture_fem.studies.calibrate.data import THREAD_END, USUM
+from suture_fem.support import compat
+
+
+class Sensitivity:
+    """The predictions of one physics and their derivatives with respect to its Constant parameters."""
+
+    def __init__(self, physics: Physics):
+        """The reduction, the Jacobian's matrices and the thread-end functional at a displacement change."""
+        self.physics = physics
+        self.reduction = Reduction(physics)
+        self.J_form = physics.form("jacobian")
+        self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
+        self.du_state = dolfinx.fem.Function(physics.W)
+        self.du = dolfinx.fem.Function(physics.V) if physics.u_in_state is not None else self.du_state
+        self.end_form = dolfinx.fem.form(ufl.replace(physics.end_displacement, {physics.u: self.du}))
+
+    def thread_end_mm(self) -> float:
+        """The thread end's axial displacement (mm) at the current state."""
+        p = self.physics
+        return p.comm.allreduce(dolfinx.fem.assemble_scalar(p.form("end_displacement")), op=MPI.SUM) / p.pull_area / MM
+
+    def _thread_end_change(self) -> float:
+        p = self.physics
+        return p.comm.allreduce(dolfinx.fem.assemble_scalar(self.end_form), op=MPI.SUM) / p.pull_area / MM
+
+    def _usum_node(self) -> tuple[float, np.ndarray, int]:
+        """(USUM in mm, the displacement at its node, the node's local index or -1 on other ranks)."""
+        u = self.physics.u
+        n = u.function_space.dofmap.index_map.size_local
+        values = u.x.array.reshape(-1, 2)[:n]
+        mags = np.linalg.norm(values, axis=1)
+        i = int(np.argmax(mags)) if n else -1
+        local = float(mags[i]) if n else -1.0
+        best = self.physics.comm.allreduce((local, self.physics.comm.rank), op=MPI.MAXLOC)
+        mine = best[1] == self.physics.comm.rank
+        return best[0] / MM, values[i].copy() if mine else np.zeros(2), i if mine else -1
+
+    def value(self, quantity: str) -> float:
+        """The prediction (mm) at the current state: :data:`THREAD_END` or :data:`USUM`."""
+        return self.thread_end_mm() if quantity == THREAD_END else self._usum_node()[0]
+
+    def at_state(self, quantity: str, keys: list[str]) -> tuple[float, np.ndarray]:
+        """The prediction (mm) and its derivative with respect to every key, at the current (converged) state."""
+        value = self.value(quantity)
+        if not keys:
+            return value, np.zeros(0)
+        changes = self.state_derivatives(keys)
+        out = np.zeros(len(keys))
+        for j, change in enumerate(changes):
+            out[j] = self._change_of(quantity, change)
+        return value, out
+
+    def _change_of(self, quantity: str, change: np.ndarray) -> float:
+        """The prediction's derivative (mm per unit parameter) given du/dp as the state's local array."""
+        p = self.physics
+        self.du_state.x.array[:] = change
+        if p.u_in_state is not None:
+            self.du.x.array[:] = change[p.u_in_state]
+        if quantity == THREAD_END:
+            return self._thread_end_change()
+        if quantity != USUM:
+            raise ValueError(f"unknown quantity {quantity!r}")
+        usum, u_node, i = self._usum_node()
+        local = 0.0
+        if i >= 0 and usum > 0:
+            local = float(u_node @ self.du.x.array.reshape(-1, 2)[i]) / (usum * MM) / MM
+        return p.comm.allreduce(local, op=MPI.SUM)
+
+    def state_derivatives(self, keys: list[str]) -> list[np.ndarray]:
+        """Du/dp for every key, as local arrays of the state (one assembly and one factorisation of A)."""
+        p, T = self.physics, self.reduction.T
+        self.A_full.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
+        self.A_full.assemble()
+        A = self.A_full.ptap(T)
+        ksp = PETSc.KSP().create(p.comm)
+        ksp.setOperators(A)
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps")
+        b, x = A.createVecs()
+        out = []
+        try:
+            for key in keys:
+                rhs = dolfinx.fem.petsc.assemble_vector(p.parameter_derivative(key))
+                rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                T.multTranspose(rhs, b)
+                b.scale(-1.0)
+                ksp.solve(b, x)
+                if ksp.getConvergedReason() < 0:
+                    raise RuntimeError(f"the sensitivity solve for {key} failed ({ksp.getConvergedReason()})")
+                vec = compat.function_vector(self.du_state)
+                T.mult(x, vec)
+                vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                out.append(self.du_state.x.array.copy())
+                rhs.destroy()
+        finally:
+            for obj in (ksp, A, b, x):
+                obj.destroy()
+        return out

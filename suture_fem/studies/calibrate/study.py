@@ -1,0 +1,72 @@
+"""The calibration's entry: fit, propagate to the fitted curve with its band, write json, report, picture."""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from suture_fem.scene import Scene
+from suture_fem.studies.calibrate.data import Point
+from suture_fem.studies.calibrate.fit import fit
+from suture_fem.studies.calibrate.keys import FitKey
+from suture_fem.studies.calibrate.model import Model
+from suture_fem.studies.calibrate.report import markdown, picture
+from suture_fem.support.errors import SceneError
+from suture_fem.support.io import write_json, write_text
+from suture_fem.support.parallel import on_root
+
+log = logging.getLogger("suture_fem")
+
+#: Forces (as fractions of each group's largest measured force) at which the fitted curve is drawn.
+CURVE_FRACTIONS = tuple(np.linspace(0.1, 1.0, 10))
+
+
+def check_scene(scene: Scene) -> None:
+    """A calibration solves quasi-static ramps: a scene with inertia is refused (SceneError)."""
+    if scene.effects.inertia:
+        raise SceneError("scene key effects.inertia = true: calibrate fits quasi-static ramps (set it false)")
+
+
+def calibrate(scene: Scene, points: list[Point], keys: list[FitKey], comm: Any, out: Path | None = None,
+              max_evaluations: int = 30, curve: bool = True) -> dict[str, Any]:
+    """Fit ``keys`` to ``points``; returns (and writes under ``out``) the calibration record."""
+    check_scene(scene)
+    t0 = time.perf_counter()
+    model = Model(scene, points, keys, comm)
+    record = fit(model, max_evaluations)
+    record["data"] = [p.__dict__ for p in points]
+    record["evaluations"] = model.history
+    if curve:
+        record["curve"] = fitted_curve(model, record)
+    record["cost"] = {**model.cost.as_dict(), "total_wall_time_s": round(time.perf_counter() - t0, 2)}
+    record["scene_mesh"] = scene.as_dict()["mesh"]
+    if out is not None:
+        on_root(comm, "creating the output folder", Path(out).mkdir, parents=True, exist_ok=True)
+        on_root(comm, "writing calibration.json", write_json, Path(out) / "calibration.json", record)
+        on_root(comm, "writing calibration.md", write_text, Path(out) / "calibration.md", markdown(record))
+        if curve:
+            on_root(comm, "drawing calibration.png", picture, record, Path(out) / "calibration.png")
+    return record
+
+
+def fitted_curve(model: Model, record: dict[str, Any]) -> list[dict[str, Any]]:
+    """The fitted model over each group's forces, with its linearised 95 % band (one ramp per group)."""
+    theta = np.array([record["parameters"][k.key]["value"] for k in model.keys])
+    cov = np.array(record["covariance"])
+    quantile = stats.norm.ppf(0.975)
+    out = []
+    for cones, idx in model.groups().items():
+        f_max = max(model.points[i].force_n for i in idx)
+        forces = sorted({round(f_max * a, 9) for a in CURVE_FRACTIONS} | {model.points[i].force_n for i in idx})
+        sub = Model(model.scene, [Point(f, 0.0, None, 1.0, model.points[idx[0]].quantity, cones) for f in forces],
+                    model.keys, model.comm, cost=model.cost)
+        y, J = sub.predict(theta)
+        half = quantile * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, cov, J), 0.0))
+        out.append({"cones": cones, "quantity": model.points[idx[0]].quantity, "force_n": forces,
+                    "model_mm": y.tolist(), "band95_mm": half.tolist()})
+    return out

@@ -201,6 +201,9 @@ packages="$(bash "$work/src/scripts/install.sh" --print-apt-packages)"
 key="$(printf '%s\n%s\n%s\n' "$release" "$mirrors" "$packages" | sha256sum | cut -c1-12)"
 cached="$cache/$release-$key"
 mkdir -p "$cache"
+# One build at a time per release; runs hold the lock shared, so a rebuild never removes a root in use.
+exec 9>"$cache/$release.lock"
+flock 9
 if [ ! -f "$cached.ready" ] || [ "${SUTURE_FEM_REBUILD_ROOT:-0}" = 1 ] ||
    [ -n "$(find "$cached.ready" -mtime +"$max_age_days")" ]; then
   # Remove this release's older roots (other keys, or this one when rebuilding).
@@ -213,7 +216,15 @@ if [ ! -f "$cached.ready" ] || [ "${SUTURE_FEM_REBUILD_ROOT:-0}" = 1 ] ||
   say "building a fresh Debian $release root with mmdebstrap"
   mapfile -t mirror_lines <<<"$mirrors"
   root="$cached.tmp"
-  if ! mmdebstrap --mode=root --variant=minbase --aptopt='Acquire::Retries "3"' \
+  # apt inside mmdebstrap reads none of this machine's apt.conf.d: pass its local settings (those no
+  # package owns and that run no commands) as options.
+  aptopts=(--aptopt='Acquire::Retries "3"')
+  for f in /etc/apt/apt.conf.d/*; do
+    if [ -f "$f" ] && ! dpkg-query -S "$f" >/dev/null 2>&1 && ! grep -q 'Invoke' "$f"; then
+      aptopts+=(--aptopt="$f")
+    fi
+  done
+  if ! mmdebstrap --mode=root --variant=minbase "${aptopts[@]}" \
       "$release" "$root" "${mirror_lines[@]}" >"$log" 2>&1 </dev/null; then
     tail -n 30 "$log"
     rm -rf --one-file-system "$root"
@@ -239,6 +250,7 @@ if [ ! -f "$cached.ready" ] || [ "${SUTURE_FEM_REBUILD_ROOT:-0}" = 1 ] ||
 else
   say "root from the cache $cached (built $(date -r "$cached.ready" '+%F %R'); SUTURE_FEM_REBUILD_ROOT=1 rebuilds it)"
 fi
+flock -s 9
 # Each run writes into a throw-away layer over the cached root (a copy where overlayfs is missing).
 root="$work/root"
 mkdir -p "$root" "$work/upper" "$work/overlay-work"

@@ -4,7 +4,10 @@
 need the geometry and the effects), before any meshing; :func:`run_scene` solves it.
 
 ``results.json`` is rewritten (atomically) after every converged load step, so a run that stops
-later keeps everything it had computed; its ``status`` says "running", "converged" or "stopped".
+later keeps everything it had computed; its ``status`` says "running", "converged", "stopped" (a
+diagnosis), "interrupted" (SIGINT, SIGTERM) or "failed" (e.g. a full disk; ``error`` says why), and
+``process`` names the process that wrote it. The outputs of an earlier run in the same folder are
+removed first, so no stale file stays beside new results.
 """
 
 from __future__ import annotations
@@ -27,7 +30,8 @@ from suture_fem.physics.problem import build_physics
 from suture_fem.scene import Scene, parse_scene
 from suture_fem.solve.records import Timings
 from suture_fem.solve.stepping import ramp
-from suture_fem.support.errors import SolveStopped
+from suture_fem.support.errors import SolveStopped, SutureFemError
+from suture_fem.support.io import remove
 from suture_fem.support.parallel import on_root
 
 log = logging.getLogger("suture_fem")
@@ -71,14 +75,18 @@ def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: On
     outputs = _build(scene, comm, clock)
     steps = LoadSteps(scene, outputs, out, clock, on_report)
     try:
+        steps.open_fields()
         history = ramp(outputs.physics, scene, steps.converged, clock.timings)
-    except SolveStopped as stop:
-        steps.stopped(stop)
-        raise
-    finally:
         steps.close()
+    except BaseException as exc:
+        steps.ended(exc)
+        raise
     steps.finished(history)
     return steps.results
+
+
+#: What a run writes in its output folder; removed before a new run writes there (pictures by the cli).
+OUTPUT_FILES = ("results.json", "fields.xdmf", "fields.h5", ".fields.partial", "usum.png", "force_displacement.png")
 
 
 @dataclass
@@ -98,8 +106,14 @@ def _output_folder(out_dir: str | Path | None, comm: Any) -> Path | None:
     """The output folder, created now: an unusable one stops every rank before the solve, not after."""
     out = Path(out_dir) if out_dir is not None else None
     if out is not None:
-        on_root(comm, f"creating the output folder {out}", out.mkdir, parents=True, exist_ok=True)
+        on_root(comm, f"creating the output folder {out}", _fresh_outputs, out)
     return out
+
+
+def _fresh_outputs(out: Path) -> None:
+    """Create ``out``; remove what an earlier run wrote there (so no stale field file stays)."""
+    out.mkdir(parents=True, exist_ok=True)
+    remove(*(out / name for name in OUTPUT_FILES))
 
 
 def _build(scene: Scene, comm: Any, clock: _Clock) -> Outputs:
@@ -127,8 +141,14 @@ class LoadSteps:
         self.comm = outputs.physics.comm
         self.results = Results.start(scene, outputs.physics, self.comm)
         self.path = out / "results.json" if out is not None else None
-        writes_fields = out is not None and scene.output.fields
-        self.writer = FieldWriter(outputs.physics, outputs, str(out / "fields.xdmf")) if writes_fields else None
+        self.fields_path = out / "fields.xdmf" if out is not None and scene.output.fields else None
+        self.writer: FieldWriter | None = None
+        self.save()  # "running", with the process that runs it, from the start
+
+    def open_fields(self) -> None:
+        """Start the field files, if the scene asks for them (collective)."""
+        if self.fields_path is not None:
+            self.writer = FieldWriter(self.outputs.physics, self.outputs, str(self.fields_path))
 
     def converged(self, force_n: float, report: bool, time_s: float | None = None) -> None:
         """After every converged step of the ramp (``time_s``: with inertia, the time reached)."""
@@ -150,7 +170,32 @@ class LoadSteps:
         self.results.stop(stop)
         if self.results.needs_report(stop.load_reached):
             self.report(stop.load_reached)
-        self.save()
+
+    def ended(self, exc: BaseException) -> None:
+        """The ramp ended early: stopped (a diagnosis), interrupted (a signal) or failed; results.json says which.
+
+        The field files keep the converged reports after a stop or an interrupt; after a failure
+        they are removed. A results.json that cannot be written then is logged, not raised, so the
+        first error is the one reported.
+        """
+        if isinstance(exc, SolveStopped):
+            self.stopped(exc)
+        elif isinstance(exc, KeyboardInterrupt):
+            name = getattr(exc, "name", "SIGINT")
+            self.results.end("interrupted", f"interrupted by {name} after the last converged step")
+        else:
+            self.results.end("failed", str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+            if self.writer is not None:
+                self.writer.discard()
+                self.writer = None
+        try:
+            self.close()
+        except SutureFemError as err:
+            self.results.end("failed", str(err))
+        try:
+            self.save()
+        except SutureFemError as err:
+            log.error("%s", err)
 
     def finished(self, history: Any) -> None:
         """The ramp reached the full load."""
@@ -162,6 +207,7 @@ class LoadSteps:
         self.results.write(self.path, self.comm, *self.clock.stamp())
 
     def close(self) -> None:
-        """Close the field file, if any (collective)."""
-        if self.writer is not None:
-            self.writer.close()
+        """Close the field file, if any, and move it into place (collective)."""
+        writer, self.writer = self.writer, None
+        if writer is not None:
+            writer.close()

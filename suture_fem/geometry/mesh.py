@@ -19,7 +19,8 @@ from suture_fem.geometry.regions import CELL_TAGS, FACET_TAGS, MM
 from suture_fem.geometry.section import Geometry
 from suture_fem.scene.schema import GeometrySection, MeshSection
 from suture_fem.support import compat
-from suture_fem.support.io import write_json
+from suture_fem.support.errors import SceneError
+from suture_fem.support.io import WriteError, commit, temporary_name, why, write_json
 from suture_fem.support.parallel import on_root
 
 
@@ -52,19 +53,56 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
     return TaggedMesh(mesh, cell_tags, facet_tags, geometry, sizes)
 
 
+def check_msh_path(path: str | Path) -> Path:
+    """The path of a .msh file to write; SceneError (one line) for a folder or another suffix.
+
+    The JSON record is written beside it with the suffix .json, so ``X.json`` would be overwritten.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise SceneError(f"--out {path}: is a folder; give the mesh file's name, e.g. --out {path / 'mesh.msh'}")
+    if path.suffix != ".msh":
+        raise SceneError(f"--out {path}: the mesh file's name must end in .msh (its JSON record is written beside "
+                         f"it with .json), e.g. --out {path.with_suffix('.msh')}")
+    return path
+
+
+def _write_checked(gmsh: Any, path: Path) -> None:
+    """gmsh.write to a temporary name, checked to end with a complete section, flushed, then renamed.
+
+    gmsh does not report a short write (a full disk): a file that does not end with a ``$End...``
+    line is removed and the error raised instead of being renamed into place.
+    """
+    tmp = temporary_name(path).with_suffix(".msh")  # gmsh picks the format by the suffix
+    try:
+        gmsh.write(str(tmp))
+        with open(tmp, "rb") as f:
+            f.seek(max(0, os.fstat(f.fileno()).st_size - 64))
+            tail = f.read().rstrip().rsplit(b"\n", 1)[-1]
+        if not tail.startswith(b"$End"):
+            reason = why(OSError(28, "short write"), path.parent)
+            raise WriteError(f"writing {path}: gmsh wrote an incomplete file ({reason}); nothing was written")
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    commit(tmp, path)
+
+
 def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path: str | Path) -> dict[str, Any]:
-    """Write a scene's mesh as a gmsh .msh file (mm) with a JSON record of its parameters beside it."""
+    """Write a scene's mesh as a gmsh .msh file (mm) with a JSON record of its parameters beside it.
+
+    Raises SceneError when ``path`` is a folder or does not end in .msh (before meshing), WriteError
+    when the disk is full (no partial file is left).
+    """
     from suture_fem import __version__
 
-    path = Path(path)
+    path = check_msh_path(path)
     geometry = Geometry.from_section(geometry_section)
     sizes = MeshSizes.from_section(mesh_section)
     with compat.gmsh_session() as gmsh:
         try:
             build_gmsh_model(geometry, sizes)
-            tmp = path.with_name(path.name + ".part.msh")
-            gmsh.write(str(tmp))
-            os.replace(tmp, path)
+            _write_checked(gmsh, path)
             nodes = len(gmsh.model.mesh.getNodes()[0])
             cells = sum(len(t) for t in gmsh.model.mesh.getElements(2)[1])
         finally:

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import dolfinx.fem
 import numpy as np
@@ -12,6 +14,7 @@ import numpy as np
 from suture_fem.outputs.base import PointFields, hencky_equivalent, von_mises
 from suture_fem.physics.problem import Physics
 from suture_fem.support import compat
+from suture_fem.support.io import WriteError, commit, remove, why
 from suture_fem.support.parallel import on_root
 
 if TYPE_CHECKING:
@@ -39,20 +42,38 @@ def cell_maxima(points: PointFields) -> dict[str, np.ndarray]:
 
 
 class FieldWriter:
-    """XDMF output for ParaView: displacement (P1) and the cell-wise maximum von Mises stress."""
+    """XDMF output for ParaView: displacement (P1) and the cell-wise maximum von Mises stress.
+
+    Complete or absent: the pair is written into a hidden folder and moved beside results.json on
+    :meth:`close`, after both files are flushed to disk. A failed write (a full disk) removes the
+    hidden folder and raises WriteError in one line; :meth:`discard` does the same after any other failure.
+    """
 
     def __init__(self, physics: Physics, outputs: Outputs, path: str):
         self.physics, self.outputs = physics, outputs
         mesh = physics.mesh
-        # Written into a hidden folder and moved beside results.json on close, so the .xdmf/.h5 pair
-        # is complete or absent (the .xdmf names its .h5 by a relative path, which the move keeps).
+        # The .xdmf names its .h5 by a relative path, which the move keeps.
         self.final = Path(path)
         self.staging = self.final.parent / f".{self.final.stem}.partial"
-        on_root(mesh.comm, f"creating {self.staging}", self.staging.mkdir, parents=True, exist_ok=True)
-        self.file = compat.create_xdmf(mesh.comm, str(self.staging / self.final.name))
-        self.file.write_mesh(mesh)
+        self.file = None
+        on_root(mesh.comm, f"creating {self.staging}", _fresh, self.staging)
         self.u1 = dolfinx.fem.Function(compat.vector_space(mesh, 1), name="displacement_m")
         self.vm = dolfinx.fem.Function(compat.scalar_space(mesh, "DG", 0), name="von_mises_pa")
+        _quiet_hdf5()
+        self._checked(self._open)
+
+    def _open(self) -> None:
+        self.file = compat.create_xdmf(self.physics.mesh.comm, str(self.staging / self.final.name))
+        self.file.write_mesh(self.physics.mesh)
+
+    def _checked(self, fn: Any, *args: Any) -> None:
+        """Run an HDF5 write; on failure remove the partial files and raise WriteError (collective)."""
+        try:
+            fn(*args)
+        except (RuntimeError, OSError) as exc:
+            self.discard()
+            raise WriteError(f"writing {self.final.with_suffix('.h5')}: {why(exc, self.final.parent)}; "
+                             "no field files were kept") from None
 
     def write(self, force_n: float) -> None:
         """Append the current state at time ``force_n`` (collective)."""
@@ -61,17 +82,59 @@ class FieldWriter:
             vm = self.outputs.cell_maxima()["von_mises_pa"]
             self.vm.x.array[: len(vm)] = vm
             self.vm.x.scatter_forward()
-            self.file.write_function(self.vm, force_n)
-        self.file.write_function(self.u1, force_n)
+            self._checked(self.file.write_function, self.vm, force_n)
+        self._checked(self.file.write_function, self.u1, force_n)
 
     def close(self) -> None:
-        """Close the file and move the pair into place (collective)."""
-        self.file.close()
+        """Close the file, flush the pair to disk and move it into place (collective)."""
+        file, self.file = self.file, None
+        if file is None:
+            return
+        self._checked(file.close)
         comm = self.physics.comm
         comm.barrier()
         on_root(comm, f"moving {self.final.name} into place", self._move_into_place)
 
+    def discard(self) -> None:
+        """Drop the partial files after a failure (never raises; rank 0 removes the hidden folder)."""
+        file, self.file = self.file, None
+        if file is not None:
+            with contextlib.suppress(Exception):  # the write failed already; the folder goes anyway
+                file.close()
+        if self.physics.comm.rank == 0:
+            # HDF5 keeps a file it failed to flush open: empty it, so its blocks are free for results.json
+            for f in self.staging.glob("*") if self.staging.is_dir() else ():
+                with contextlib.suppress(OSError):
+                    os.truncate(f, 0)
+            remove(self.staging)
+
     def _move_into_place(self) -> None:
-        for f in self.staging.iterdir():
-            os.replace(f, self.final.parent / f.name)
+        # the .h5 first: the .xdmf that names it appears only once its data is in place
+        names = sorted((f.name for f in self.staging.iterdir()), key=lambda n: not n.endswith(".h5"))
+        try:
+            for name in names:
+                commit(self.staging / name, self.final.parent / name)
+        except BaseException:
+            remove(self.staging, *(self.final.parent / n for n in names))
+            raise
         self.staging.rmdir()
+
+
+def _fresh(folder: Path) -> None:
+    remove(folder)
+    folder.mkdir(parents=True)
+
+
+def _quiet_hdf5() -> None:
+    """HDF5's own error stack (dozens of lines on a full disk) stays off the terminal; WriteError says it in one.
+
+    ``H5Eset_auto2(H5E_DEFAULT, NULL, NULL)`` in the HDF5 library dolfinx loaded (found in this
+    process's memory map); a no-op where there is none.
+    """
+    try:
+        with open("/proc/self/maps") as maps:
+            libs = {line.split()[-1] for line in maps if "libhdf5" in line and ".so" in line}
+        for lib in libs:
+            ctypes.CDLL(lib).H5Eset_auto2(ctypes.c_int64(0), None, None)
+    except (OSError, AttributeError):
+        pass

@@ -20,7 +20,7 @@ from suture_fem.physics.problem import Physics
 from suture_fem.scene import Scene
 from suture_fem.support import compat
 from suture_fem.support.errors import SolveStopped
-from suture_fem.support.io import write_json
+from suture_fem.support.io import this_process, write_json
 from suture_fem.support.parallel import on_root
 
 
@@ -83,7 +83,7 @@ class SolverRecord:
 
 @dataclass(eq=False)
 class Results(Mapping):
-    """What one run computed; ``status`` is "running", "converged" or "stopped".
+    """What one run computed; ``status`` is "running", "converged", "stopped", "interrupted" or "failed".
 
     Attributes:
         run: versions, MPI ranks, degrees of freedom, unknowns, the mesh's cells and sizes, the
@@ -98,6 +98,7 @@ class Results(Mapping):
         wall_time_s, timings_s: stamped at every write.
         solver: the solver's bookkeeping, once the ramp ended or stopped.
         diagnosis: why the ramp stopped.
+        error: why the run was interrupted or failed (one line).
     """
 
     run: dict[str, Any]
@@ -113,6 +114,7 @@ class Results(Mapping):
     timings_s: dict[str, float] | None = None
     solver: SolverRecord | None = None
     diagnosis: Diagnosis | None = None
+    error: str | None = None
 
     @classmethod
     def start(cls, scene: Scene, physics: Physics, comm: Any) -> Results:
@@ -125,6 +127,7 @@ class Results(Mapping):
             "unknowns": physics.num_unknowns(),
             **meshmod.describe(physics.tagged),
             "applied_force_n": scene.loading.force_n,
+            "process": this_process(),  # pid, host, start: a reader can tell a dead "running" from a live one
         }
         return cls(run=run, effects=physics.effects_record(), scene=scene.as_dict())
 
@@ -158,6 +161,10 @@ class Results(Mapping):
         self.status = "stopped"
         self.diagnosis = Diagnosis.from_stop(stop)
 
+    def end(self, status: str, error: str) -> None:
+        """The run ended without a diagnosis: "interrupted" (a signal) or "failed" (e.g. a full disk)."""
+        self.status, self.error = status, error
+
     def write(self, path: Path | None, comm: Any, wall_time_s: float, timings_s: dict[str, float]) -> None:
         """Stamp the times; with a path, write the JSON form there atomically (rank 0)."""
         self.wall_time_s, self.timings_s = wall_time_s, timings_s
@@ -179,6 +186,8 @@ class Results(Mapping):
             out.update(self.solver.as_dict())
         if self.diagnosis is not None:
             out["diagnosis"] = self.diagnosis.as_dict()
+        if self.error is not None:
+            out["error"] = self.error
         return out
 
     def __getitem__(self, key: str) -> Any:

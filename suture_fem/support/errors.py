@@ -63,3 +63,18 @@ class SolveStopped(SutureFemError, RuntimeError):
         stop = cls(**kwargs)
         stop.history = history
         return stop
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT (Ctrl-C) or SIGTERM arrived: the run ends, results.json says "interrupted".
+
+    ``exit_code`` is 128 + the signal's number (130 for SIGINT, 143 for SIGTERM), as a shell reports it.
+    """
+
+    def __init__(self, signum: int):
+        """Record the signal (its number and name)."""
+        import signal
+
+        self.signum, self.exit_code = signum, 128 + signum
+        self.name = signal.Signals(signum).name
+        super().__init__(self.name)

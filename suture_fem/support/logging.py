@@ -27,6 +27,7 @@ def setup_logging(comm: Any, verbose: bool = False) -> None:
     logger.setLevel(logging.DEBUG if verbose else logging.INFO)
     logger.propagate = False
     quiet_compiler_logs()
+    announce_compilation()
 
 
 def quiet_compiler_logs() -> None:
@@ -39,3 +40,37 @@ def quiet_compiler_logs() -> None:
 
     for handler in logging.getLogger().handlers:
         handler.setLevel(logging.WARNING)
+
+
+#: Wall time of the first run's form compilation (FFCx generates C, gcc compiles it; cached in
+#: ~/.cache/fenics afterwards), measured for the paper scene on this project's 2-core machine.
+FIRST_COMPILE_S = 10
+
+
+class _CompilerNotice(logging.Handler):
+    """The compiler's lines (root-logger records of distutils) to "suture_fem" at DEBUG, with one notice.
+
+    The first time FFCx's JIT builds a C extension in this process, "compiling forms (first run
+    only, about N s)" is logged once at INFO; the gcc command lines go to DEBUG (``-v`` shows them).
+    """
+
+    def __init__(self) -> None:
+        super().__init__(logging.DEBUG)
+        self.said = False
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.name != "root":
+            return
+        message = record.getMessage()
+        logger = logging.getLogger("suture_fem")
+        if not self.said and message.startswith("building 'libffcx"):
+            self.said = True
+            logger.info("compiling forms (first run only, about %d s; cached in ~/.cache/fenics)", FIRST_COMPILE_S)
+        logger.debug("compiler: %s", message)
+
+
+def announce_compilation() -> None:
+    """Install the one-line notice of the first run's form compilation (once per process)."""
+    root = logging.getLogger()
+    if not any(isinstance(h, _CompilerNotice) for h in root.handlers):
+        root.addHandler(_CompilerNotice())

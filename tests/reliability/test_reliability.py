@@ -7,7 +7,9 @@ process and check the exit code, the single line and that no output folder was c
 
 from __future__ import annotations
 
+import json
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -235,3 +237,182 @@ def test_convergence_with_an_empty_ladder_is_refused(option, tmp_path, capsys):
     code, err = _cli(["convergence", "paper", option, "", "--out", str(out)], capsys)
     assert code == 2 and len(err) == 1 and option in err[0], err
     assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- files: complete or absent
+
+FAST_RUN = ["--set", "mesh.degree=1", "--set", "loading.force_n=1.0"]
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A mount of ``size`` KiB (tmpfs); skipped where mounting is not allowed; unmounted afterwards."""
+    import subprocess
+
+    mounted = []
+
+    def mount(size_kib: int) -> Path:
+        point = tmp_path / f"disk{len(mounted)}"
+        point.mkdir()
+        proc = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size_kib}k", "tmpfs", str(point)],
+                              capture_output=True, text=True)
+        if proc.returncode != 0:
+            pytest.skip(f"cannot mount a tmpfs here: {proc.stderr.strip()}")
+        mounted.append(point)
+        return point
+
+    try:
+        yield mount
+    finally:
+        for point in mounted:
+            subprocess.run(["umount", str(point)], check=False)
+
+
+@pytest.mark.parametrize("size_kib", [300, 450])  # full while writing the mesh / while writing the fields
+def test_fields_on_a_full_disk(size_kib, small_disk, capsys):
+    # B3: a truncated fields.h5/.xdmf was moved into place, a traceback, results.json stuck at "running"
+    out = small_disk(size_kib) / "run"
+    code, err = _cli(["run", "paper", *FAST_RUN, "--fields", "--no-pictures", "--out", str(out)], capsys)
+    assert code == 1 and len(err) == 1 and "fields.h5" in err[0] and "free" in err[0], err
+    assert sorted(p.name for p in out.iterdir()) == ["results.json"]  # no partial field files, no temporary files
+    results = json.loads((out / "results.json").read_text())
+    assert results["status"] == "failed" and "fields.h5" in results["error"]
+
+
+def test_a_mesh_on_a_full_disk_is_not_renamed_into_place(small_disk, capsys):
+    # B4: gmsh does not report a short write; the truncated .msh was renamed into place
+    disk = small_disk(200)
+    code, err = _cli(["mesh", "paper", "--out", str(disk / "paper.msh")], capsys)
+    assert code == 1 and len(err) == 1 and "paper.msh" in err[0] and "nothing was written" in err[0], err
+    assert list(disk.iterdir()) == []
+
+
+def test_mesh_out_must_name_a_msh_file(tmp_path, capsys):
+    # B12: --out X.json wrote the mesh to X.json, then the JSON record over it
+    code, err = _cli(["mesh", "paper", "--out", str(tmp_path / "X.json")], capsys)
+    assert code == 2 and len(err) == 1 and "must end in .msh" in err[0] and "X.msh" in err[0], err
+    # B13: --out EXISTING_DIR was a traceback and left DIR.part.msh behind
+    code, err = _cli(["mesh", "paper", "--out", str(tmp_path)], capsys)
+    assert code == 2 and len(err) == 1 and "is a folder" in err[0], err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_write_text_leaves_the_old_file_or_the_new_one(tmp_path, monkeypatch):
+    from suture_fem.support import io
+
+    target = tmp_path / "results.json"
+    io.write_text(target, "old\n")
+
+    def short_fsync(fd):  # the disk fills while flushing
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(io.os, "fsync", short_fsync)
+    with pytest.raises(io.WriteError, match="No space left on device"):
+        io.write_text(target, "new\n")
+    assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["results.json"]
+
+
+# ----------------------------------------------------------------------------- what a person sees
+
+def test_a_run_draws_pictures_prints_the_tissue_table_and_removes_stale_files(tmp_path, capsys):
+    out = tmp_path / "run"
+    out.mkdir()
+    for stale in ("fields.xdmf", "fields.h5", "usum.png"):
+        (out / stale).write_text("from an earlier run")
+    from suture_fem.cli.main import main
+
+    assert main(["run", "paper", *FAST_RUN, "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == ["force_displacement.png", "results.json", "usum.png"]
+    assert (out / "usum.png").read_bytes()[:4] == b"\x89PNG" and (out / "usum.png").stat().st_size > 10_000
+    assert "tissue SEQV" in printed and "maximum over quadrature points" in printed and "MPa at r =" in printed
+    assert str(out / "usum.png") in printed and str(out / "force_displacement.png") in printed
+    results = json.loads((out / "results.json").read_text())
+    assert results["status"] == "converged" and results["process"]["pid"] == os.getpid()
+
+
+def test_a_picture_that_fails_never_costs_the_results(tmp_path, capsys, monkeypatch):
+    from suture_fem import plots
+    from suture_fem.cli.main import main
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("no OpenGL")
+
+    monkeypatch.setattr(plots, "render_usum", broken)
+    out = tmp_path / "run"
+    assert main(["run", "paper", *FAST_RUN, "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "no OpenGL" in captured.err and "Traceback" not in captured.err
+    assert json.loads((out / "results.json").read_text())["status"] == "converged"
+    assert (out / "force_displacement.png").exists() and not (out / "usum.png").exists()
+
+
+# ----------------------------------------------------------------------------- signals
+
+@pytest.mark.parametrize("signum, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_signal_ends_the_run_cleanly(signum, code, tmp_path):
+    import subprocess
+    import sys
+    import time
+
+    from tests.conftest import mpi_env
+
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-P", "-m", "suture_fem.cli", "run", "paper", "--set", "mesh.degree=1",
+                             "--no-pictures", "--out", str(out)], stderr=subprocess.PIPE, text=True, env=mpi_env())
+    try:
+        while proc.poll() is None:  # wait for the first converged step
+            try:
+                if len(json.loads((out / "results.json").read_text())["force_displacement"]) > 1:
+                    break
+            except (OSError, ValueError):
+                pass
+            time.sleep(0.1)
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=300)
+    finally:
+        proc.kill()
+    assert proc.returncode == code, err
+    assert "Traceback" not in err and f"interrupted ({signal.Signals(signum).name})" in err
+    results = json.loads((out / "results.json").read_text())
+    assert results["status"] == "interrupted" and len(results["force_displacement"]) > 1
+    assert results["process"]["pid"] == proc.pid
+
+
+# ----------------------------------------------------------------------------- one sweep per folder
+
+def test_a_second_sweep_into_the_same_folder_is_refused(tmp_path, capsys):
+    from suture_fem.studies.sweep.folders import take_lock
+
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('base = "paper"\n[grid]\n"geometry.cones" = [1, 2]\n')
+    out = tmp_path / "out"
+    held = take_lock(out)  # as the first sweep does, for its life
+    try:
+        code, err = _cli(["sweep", str(sweep), "--out", str(out)], capsys)
+    finally:
+        held.close()
+    assert code == 2 and len(err) == 1 and f"in use by process {os.getpid()}" in err[0], err
+    assert sorted(p.name for p in out.iterdir()) == [".sweep.lock"]  # nothing solved
+
+
+# ----------------------------------------------------------------------------- the first run's compiler
+
+def test_the_first_compilation_is_one_line(tmp_path):
+    import subprocess
+    import sys
+
+    probe = tmp_path / "probe.py"
+    probe.write_text(
+        "from mpi4py import MPI\n"
+        "from suture_fem.support.logging import setup_logging\n"
+        "setup_logging(MPI.COMM_WORLD)\n"
+        "import dolfinx.fem, dolfinx.mesh, ufl\n"
+        "m = dolfinx.mesh.create_unit_square(MPI.COMM_WORLD, 2, 2)\n"
+        "u = dolfinx.fem.Function(dolfinx.fem.FunctionSpace(m, ('CG', 1)))\n"
+        "dolfinx.fem.form(u * u * ufl.dx)\n"
+        "dolfinx.fem.form(u * u * u * ufl.dx)\n")
+    env = {**os.environ, "HOME": str(tmp_path)}  # an empty form cache: everything compiles
+    env.pop("XDG_CACHE_HOME", None)
+    err = subprocess.run([sys.executable, "-P", str(probe)], capture_output=True, text=True, env=env).stderr
+    assert err.count("compiling forms (first run only") == 1 and "gcc" not in err, err

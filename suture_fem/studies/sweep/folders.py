@@ -9,12 +9,15 @@ stopped or invalid; an "error" is retried) unless ``--redo``.
 
 from __future__ import annotations
 
+import fcntl
+import json
 import os
 import shutil
 from pathlib import Path
 from typing import Any
 
-from suture_fem.support.io import read_json, write_json
+from suture_fem.studies.sweep.plan import SweepError
+from suture_fem.support.io import read_json, this_process, write_json
 
 FINISHED = ("converged", "stopped", "invalid")  # a folder with one of these is not solved again
 
@@ -55,3 +58,33 @@ def publish(staging: Path, final: Path, status: dict[str, Any]) -> None:
         shutil.rmtree(old, ignore_errors=True)
     else:
         os.replace(staging, final)
+
+
+LOCK_NAME = ".sweep.lock"
+
+
+def take_lock(out: Path) -> Any:
+    """Lock the sweep folder for this sweep's life (``fcntl.flock`` on ``OUT/.sweep.lock``).
+
+    Returns the open lock file (the lock goes when it is closed or the process ends, also when it is
+    killed). A folder another sweep holds raises SweepError naming its process, host and start time.
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    f = open(out / LOCK_NAME, "a+")  # noqa: SIM115 (held open for the sweep's life)
+    try:
+        fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        f.seek(0)
+        try:
+            holder = json.loads(f.read())
+            who = f"process {holder['pid']} on {holder['host']} since {holder['started_at']}"
+        except (ValueError, KeyError, TypeError):
+            who = "another process"
+        f.close()
+        raise SweepError(f"sweep folder {out} is in use by {who}; wait for that sweep to end or give "
+                         "another --out") from None
+    f.seek(0)
+    f.truncate()
+    f.write(json.dumps(this_process()) + "\n")
+    f.flush()
+    return f

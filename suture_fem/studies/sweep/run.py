@@ -10,6 +10,7 @@ records its diagnosis and the sweep goes on.
 from __future__ import annotations
 
 import logging
+import os
 import platform
 import time
 import traceback
@@ -20,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from suture_fem.studies.sweep.folders import FINISHED, finished_scenes, fresh_folder, publish, read_status
+from suture_fem.studies.sweep.folders import FINISHED, finished_scenes, fresh_folder, publish, read_status, take_lock
 from suture_fem.studies.sweep.plan import Case, Sweep, SweepError, command_of, toml_value
 from suture_fem.studies.sweep.summary import write_summary
 from suture_fem.support.errors import SceneError, SolveStopped, SutureFemError
@@ -94,6 +95,7 @@ def _case_status(sweep: Sweep, case: Case, outcome: Outcome, previous: dict[str,
         "wall_time_s": round(seconds, 3),
         "finished_at": datetime.now(UTC).isoformat(timespec="seconds"),
         "host": platform.node(),
+        "pid": os.getpid(),
         "solve_count": (previous or {}).get("solve_count", 0) + int(case.scene is not None),
     }
 
@@ -250,6 +252,11 @@ def run_sweep(sweep: Sweep, world: Any, ranks_per_scene: int = 1, redo: str | No
     Returns:
         (summary.json's content, this run's record or None), the same on every rank.
     """
-    last_run = None if summary_only else solve_sweep(sweep, world, ranks_per_scene, redo, schedule)
-    data = on_root(world, f"writing the summary in {sweep.out}", write_summary, sweep, last_run)
+    lock = on_root(world, f"locking {sweep.out}", take_lock, sweep.out)  # one sweep per folder at a time
+    try:
+        last_run = None if summary_only else solve_sweep(sweep, world, ranks_per_scene, redo, schedule)
+        data = on_root(world, f"writing the summary in {sweep.out}", write_summary, sweep, last_run)
+    finally:
+        if lock is not None:
+            lock.close()
     return world.bcast(data, root=0), last_run

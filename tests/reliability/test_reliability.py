@@ -264,8 +264,8 @@ def small_disk(tmp_path):
     try:
         yield mount
     finally:
-        for point in mounted:
-            subprocess.run(["umount", str(point)], check=False)
+        for point in mounted:  # lazily: a library may still hold a file open there
+            subprocess.run(["umount", "-l", str(point)], check=False)
 
 
 @pytest.mark.parametrize("size_kib", [300, 450])  # full while writing the mesh / while writing the fields

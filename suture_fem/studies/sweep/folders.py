@@ -66,13 +66,18 @@ LOCK_NAME = ".sweep.lock"
 def take_lock(out: Path) -> Any:
     """Lock the sweep folder for this sweep's life (``fcntl.flock`` on ``OUT/.sweep.lock``).
 
-    Returns the open lock file (the lock goes when it is closed or the process ends, also when it is
-    killed). A folder another sweep holds raises SweepError naming its process, host and start time.
+    Returns the open lock file (the lock goes when :func:`release_lock` removes and closes it, or
+    when the process ends, also when it is killed). A folder another sweep holds raises SweepError
+    naming its process, host and start time.
     """
     out.mkdir(parents=True, exist_ok=True)
-    f = open(out / LOCK_NAME, "a+")  # noqa: SIM115 (held open for the sweep's life)
+    path = out / LOCK_NAME
+    f = open(path, "a+")  # noqa: SIM115 (held open for the sweep's life)
     try:
         fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        if not path.exists() or os.stat(path).st_ino != os.fstat(f.fileno()).st_ino:
+            f.close()  # the sweep that held it removed it meanwhile: lock the new one
+            return take_lock(out)
     except OSError:
         f.seek(0)
         try:
@@ -88,3 +93,9 @@ def take_lock(out: Path) -> Any:
     f.write(json.dumps(this_process()) + "\n")
     f.flush()
     return f
+
+
+def release_lock(lock: Any, out: Path) -> None:
+    """Remove the lock file (while still holding it, so no one locks a removed file unnoticed) and close it."""
+    (out / LOCK_NAME).unlink(missing_ok=True)
+    lock.close()

@@ -21,7 +21,15 @@ from typing import Any
 
 import numpy as np
 
-from suture_fem.studies.sweep.folders import FINISHED, finished_scenes, fresh_folder, publish, read_status, take_lock
+from suture_fem.studies.sweep.folders import (
+    FINISHED,
+    finished_scenes,
+    fresh_folder,
+    publish,
+    read_status,
+    release_lock,
+    take_lock,
+)
 from suture_fem.studies.sweep.plan import Case, Sweep, SweepError, command_of, toml_value
 from suture_fem.studies.sweep.summary import write_summary
 from suture_fem.support.errors import SceneError, SolveStopped, SutureFemError
@@ -258,5 +266,5 @@ def run_sweep(sweep: Sweep, world: Any, ranks_per_scene: int = 1, redo: str | No
         data = on_root(world, f"writing the summary in {sweep.out}", write_summary, sweep, last_run)
     finally:
         if lock is not None:
-            lock.close()
+            release_lock(lock, sweep.out)
     return world.bcast(data, root=0), last_run

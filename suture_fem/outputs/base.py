@@ -143,7 +143,7 @@ class Setup:
         self.physics, self.output, self.quantities = physics, output, quantities
         V = physics.V
         self.node_xy = V.tabulate_dof_coordinates()[:, :2]
-        dofs = V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
+        dofs = compat.cell_dofs(V)
         self.region_nodes: dict[str, np.ndarray] = {}
         for name, tags in REPORT_REGIONS.items():
             cells = meshmod.region_cells(physics.tagged, tags)

@@ -75,7 +75,7 @@ def mark_dofs(W: Any, cells: Any, sub: Any | None = None) -> Any:
     carrier = dolfinx.fem.Function(W)
     carrier.x.array[:] = 0.0
     if len(cells):
-        dofs = space.dofmap.list.array.reshape(-1, space.dofmap.dof_layout.num_dofs)[cells]
+        dofs = compat.cell_dofs(space)[cells]
         bs = space.dofmap.bs
         if bs > 1:  # a blocked dofmap lists nodes: unroll
             dofs = (bs * dofs[:, :, None] + np.arange(bs)[None, None, :]).reshape(len(cells), -1)

@@ -61,6 +61,26 @@ def mixed_space(mesh: Any, degree_u: int, degree_p: int) -> Any:
     return dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element([ve, pe]))  # pragma: no cover
 
 
+def cell_dofs(space: Any) -> np.ndarray:
+    """The dofmap as a 2-D array (local cell, dof of the cell); blocked spaces list nodes.
+
+    dolfinx 0.5-0.6 return an AdjacencyList (flattened in ``.array``); from 0.7 on it is a 2-D array.
+    """
+    dofmap = space.dofmap.list
+    if hasattr(dofmap, "array") and not isinstance(dofmap, np.ndarray):
+        return dofmap.array.reshape(-1, space.dofmap.dof_layout.num_dofs)
+    return np.asarray(dofmap)  # pragma: no cover (dolfinx >= 0.7)
+
+
+def geometry_dofs(mesh: Any) -> np.ndarray:
+    """The geometry dofmap as a 2-D array (local cell, its geometry nodes: 3 for a straight triangle)."""
+    dofmap = mesh.geometry.dofmap
+    if hasattr(dofmap, "array") and not isinstance(dofmap, np.ndarray):
+        per_cell = int(dofmap.offsets[1] - dofmap.offsets[0]) if dofmap.num_nodes else 3
+        return dofmap.array.reshape(-1, per_cell)
+    return np.asarray(dofmap)  # pragma: no cover (dolfinx >= 0.7)
+
+
 def function_vector(u: Any) -> Any:
     """The PETSc vector behind a Function."""
     return u.vector if hasattr(u, "vector") and not callable(u.vector) else u.x.petsc_vec
@@ -82,6 +102,24 @@ def gmsh_set_distance_sampling(field_tag: int, n: int) -> None:
         gmsh.model.mesh.field.setNumber(field_tag, "NumPointsPerCurve", n)
 
 
+#: C compiler flags for every generated form and expression kernel. -O3 (not the default -O2) cuts the
+#: residual assembly of the paper scene by about a quarter and the Jacobian's by about a tenth
+#: (benchmarks/speed.py). No -ffast-math or -Ofast: they let the compiler assume that no value is NaN
+#: or Inf, and the admissible-domain guard (suture_fem/solve/guard.py) must see non-finite values.
+#: No -march=native either: the kernel cache (~/.cache/fenics) may be shared between machines.
+JIT_COMPILE_ARGS: tuple[str, ...] = ("-O3", "-g0")
+
+
+def _jit_params() -> dict[str, Any]:
+    key = "jit_params" if "jit_params" in inspect.signature(dolfinx.fem.form).parameters else "jit_options"
+    return {key: {"cffi_extra_compile_args": list(JIT_COMPILE_ARGS)}}
+
+
+def form(ufl_form: Any) -> Any:
+    """A compiled dolfinx form, its kernels built with :data:`JIT_COMPILE_ARGS`."""
+    return dolfinx.fem.form(ufl_form, **_jit_params())
+
+
 def quadrature_points(cell: str, degree: int) -> np.ndarray:
     """Reference quadrature points of a rule exact to ``degree`` on a triangle."""
     import basix
@@ -92,7 +130,7 @@ def quadrature_points(cell: str, degree: int) -> np.ndarray:
 
 def expression(expr: Any, points: np.ndarray) -> Any:
     """A compiled dolfinx Expression at reference points."""
-    return dolfinx.fem.Expression(expr, points)
+    return dolfinx.fem.Expression(expr, points, **_jit_params())
 
 
 def eval_expression(compiled: Any, mesh: Any, cells: np.ndarray) -> np.ndarray:

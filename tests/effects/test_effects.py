@@ -47,7 +47,7 @@ def elastic(tmp_path_factory):
 def suture_nodes(physics) -> np.ndarray:
     V = physics.V
     cells = meshmod.region_cells(physics.tagged, regions.SUTURE)
-    return np.unique(V.dofmap.list.array.reshape(-1, V.dofmap.dof_layout.num_dofs)[cells])
+    return np.unique(compat.cell_dofs(V)[cells])
 
 
 def coefficient_names(form) -> set[str]:

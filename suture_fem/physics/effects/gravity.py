@@ -18,6 +18,7 @@ from suture_fem.physics import kinematics
 from suture_fem.physics.effects.inertia import Densities
 from suture_fem.physics.forms import FormContext, Terms
 from suture_fem.scene.schema import EffectsSection
+from suture_fem.support import compat
 
 
 def gravity_term(ctx: FormContext, e: EffectsSection, factor: Any, terms: Terms) -> None:
@@ -36,13 +37,14 @@ def weight_n(tagged: meshmod.TaggedMesh, e: EffectsSection) -> float:
     mesh = tagged.mesh
     n_owned = mesh.topology.index_map(2).size_local
     geom = mesh.geometry.x[:, :2]
-    cells = mesh.geometry.dofmap.array.reshape(-1, 3)
+    cells = compat.geometry_dofs(mesh)
     total = 0.0
     for tag, region in REGION_OF_TAG.items():
         ids = meshmod.region_cells(tagged, tag)
         ids = ids[ids < n_owned]
         p = geom[cells[ids]]
-        area = 0.5 * np.abs(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
+        a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+        area = 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
         total += e.density(region) * float(np.sum(2 * math.pi * area * p[:, :, 0].mean(axis=1)))
     return mesh.comm.allreduce(total) * e.gravity_m_s2
 

@@ -108,7 +108,8 @@ def manufactured_solve(comm: Any, material: Material, tag: int, exact: ExactFiel
     tol = 1e-9 * size
 
     def load(v: Any, x: Any, weight: Any) -> Any:
-        dxh = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": HIGH_QUADRATURE})
+        # the same subdomain data as the elastic terms: dolfinx >= 0.9 requires one per integral type and form
+        dxh = ufl.Measure("dx", domain=mesh, subdomain_data=mesh_tags, metadata={"quadrature_degree": HIGH_QUADRATURE})
         return ufl.inner(body_force(material, exact, x), v) * weight * dxh
 
     problem = build(mesh, mesh_tags, {tag: material}, degree, load, [

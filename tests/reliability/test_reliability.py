@@ -408,8 +408,9 @@ def test_the_first_compilation_is_one_line(tmp_path):
         "from suture_fem.support.logging import setup_logging\n"
         "setup_logging(MPI.COMM_WORLD)\n"
         "import dolfinx.fem, dolfinx.mesh, ufl\n"
+        "from suture_fem.support import compat\n"
         "m = dolfinx.mesh.create_unit_square(MPI.COMM_WORLD, 2, 2)\n"
-        "u = dolfinx.fem.Function(dolfinx.fem.FunctionSpace(m, ('CG', 1)))\n"
+        "u = dolfinx.fem.Function(compat.scalar_space(m, 'Lagrange', 1))\n"
         "dolfinx.fem.form(u * u * ufl.dx)\n"
         "dolfinx.fem.form(u * u * u * ufl.dx)\n")
     env = {**os.environ, "HOME": str(tmp_path)}  # an empty form cache: everything compiles

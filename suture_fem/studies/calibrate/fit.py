@@ -11,10 +11,12 @@ the parameters exactly (n <= k, no standard deviation given, so no residual vari
 stated precision stands in for sigma: a value printed to one unit u in its last digit is known to
 +- u/2, a uniform rounding error of standard deviation u / sqrt(12) (the report says so).
 
-Identifiability from the singular values of the relative sensitivities dr/d ln theta: when the
-smallest is below :data:`COLLINEAR` times the largest, the parameters are (nearly) collinear. The data
-then determine only the combination along the largest singular vector v, prod theta_j^v_j (a ratio when
-two exponents are equal and opposite), and the verdict names it.
+Identifiability from the singular values s_1 >= ... >= s_k of the relative sensitivities
+dr/d ln theta (singular vectors v_j): the combination sum_j v_kj ln theta_j along the last one is the
+least determined, with a 95 % half-width q sigma / s_k in ln units. When that exceeds ln 2 (the data
+cannot tell that combination within a factor of two), or s_k < :data:`COLLINEAR` s_1, the parameters
+are (nearly) collinear: the data determine only the combination along v_1, prod theta_j^v_1j (a ratio
+when two exponents are equal and opposite), and the verdict names it.
 """
 
 from __future__ import annotations
@@ -30,8 +32,12 @@ from suture_fem.studies.calibrate.keys import FitKey
 from suture_fem.studies.calibrate.model import Model
 
 #: Ratio of the smallest to the largest singular value of the relative sensitivities below which the
-#: fitted parameters count as collinear (a 1 % change of the data moves the combination 100 times more).
-COLLINEAR = 1e-2
+#: fitted parameters count as collinear whatever the noise (a 1 % change of the data moves the least
+#: determined combination 1000 times more than the best determined one).
+COLLINEAR = 1e-3
+#: The least determined combination must be known within this factor (95 %) for the parameters to
+#: count as determined.
+FACTOR = 2.0
 
 
 def sigmas(points: list[Point]) -> tuple[np.ndarray, str]:
@@ -95,7 +101,7 @@ def uncertainty(keys: list[FitKey], points: list[Point], theta: np.ndarray, r: n
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)
-    verdict = identifiability(keys, theta, J)
+    verdict = identifiability(keys, theta, J, quantile * math.sqrt(sigma2))
     params = {}
     for j, key in enumerate(keys):
         half = quantile * sd[j]
@@ -109,8 +115,11 @@ def uncertainty(keys: list[FitKey], points: list[Point], theta: np.ndarray, r: n
             "uncertainty_from": source, "identifiability": verdict}
 
 
-def identifiability(keys: list[FitKey], theta: np.ndarray, J: np.ndarray) -> dict[str, Any]:
-    """Whether the data determine every parameter, else which combination they determine."""
+def identifiability(keys: list[FitKey], theta: np.ndarray, J: np.ndarray, noise: float) -> dict[str, Any]:
+    """Whether the data determine every parameter, else which combination they determine.
+
+    ``noise`` is the 95 % half-width of one weighted residual (quantile times sigma).
+    """
     names = [k.key for k in keys]
     if len(keys) == 1:
         ok = bool(np.any(J != 0))
@@ -119,14 +128,18 @@ def identifiability(keys: list[FitKey], theta: np.ndarray, J: np.ndarray) -> dic
     rel = J * theta[None, :]  # dr / d ln theta
     _, sv, vt = np.linalg.svd(rel, full_matrices=False)
     ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
-    if ratio >= COLLINEAR:
-        return {"identifiable": True, "singular_values": sv.tolist(), "ratio": ratio,
-                "verdict": f"every parameter is determined (smallest/largest relative singular value {ratio:.2g})"}
+    weakest = noise / sv[-1] if sv[-1] > 0 else math.inf  # 95 % half-width of the weakest ln-combination
+    factor = math.exp(min(weakest, 700.0))
+    if ratio >= COLLINEAR and factor <= FACTOR:
+        return {"identifiable": True, "singular_values": sv.tolist(), "ratio": ratio, "weakest_factor95": factor,
+                "verdict": f"every parameter is determined (the least determined combination within a factor "
+                           f"{factor:.3g} at 95 %; smallest/largest relative singular value {ratio:.2g})"}
     v = vt[0] / np.max(np.abs(vt[0]))
-    return {"identifiable": False, "singular_values": sv.tolist(), "ratio": ratio,
+    return {"identifiable": False, "singular_values": sv.tolist(), "ratio": ratio, "weakest_factor95": factor,
             "determined_combination": dict(zip(names, v.tolist())),
             "verdict": f"NOT identifiable: {' and '.join(names)} are (nearly) collinear (smallest/largest relative "
-                       f"singular value {ratio:.2g}); the data determine only {combination(names, v)}, not each "
+                       f"singular value {ratio:.2g}; the least determined combination only within a factor "
+                       f"{factor:.3g} at 95 %); the data determine only {combination(names, v)}, not each "
                        "parameter; their separate values and intervals are not meaningful"}
 
 

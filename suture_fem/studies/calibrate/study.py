@@ -64,7 +64,7 @@ def fitted_curve(model: Model, record: dict[str, Any]) -> list[dict[str, Any]]:
         f_max = max(model.points[i].force_n for i in idx)
         forces = sorted({round(f_max * a, 9) for a in CURVE_FRACTIONS} | {model.points[i].force_n for i in idx})
         sub = Model(model.scene, [Point(f, 0.0, None, 1.0, model.points[idx[0]].quantity, cones) for f in forces],
-                    model.keys, model.comm, cost=model.cost)
+                    model.keys, model.comm, cost=model.cost, _cases=model._cases)
         y, J = sub.predict(theta)
         half = quantile * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, cov, J), 0.0))
         out.append({"cones": cones, "quantity": model.points[idx[0]].quantity, "force_n": forces,

@@ -1,0 +1,132 @@
+"""suture-fem calibrate: bad input, direct sensitivities against finite differences, fits of synthetic truth.
+
+Every solve is on the quick P1 scene (FAST) at small forces; the scene's physics is built once per
+mesh and re-solved at new parameter values without compiling new forms.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from suture_fem.cli import main
+from suture_fem.pipeline import load_scene
+from suture_fem.studies.calibrate import Point, calibrate, parse_fit
+from suture_fem.studies.calibrate.data import THREAD_END
+from suture_fem.studies.calibrate.model import Case, Cost
+
+QUICK = ["mesh.degree=1", "mesh.refinement=0", "loading.force_n=0.5", "loading.report_forces_n=[]"]
+FORCES = [0.25, 0.5]
+TRUE_SCALE = 0.6
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return load_scene("paper", QUICK)
+
+
+@pytest.fixture(scope="module")
+def case(scene):
+    return Case(scene, MPI.COMM_WORLD, Cost())
+
+
+@pytest.fixture(scope="module")
+def truth(case):
+    """The thread end's displacement at FORCES with tissue_scale = TRUE_SCALE (mm)."""
+    return case.solve({"materials.tissue_scale": TRUE_SCALE, "loading.force_scale": 1.0}, FORCES, THREAD_END, [])[0]
+
+
+def _run(tmp_path, *args):
+    return main(["calibrate", "paper", *sum((["--set", o] for o in QUICK), []), "--out", str(tmp_path / "out"), *args])
+
+
+@pytest.mark.parametrize("csv, fit, words", [
+    ("force_n,displacement_mm\n0.5,abc\n", "materials.tissue_scale", "row 2, column displacement_mm"),
+    ("0.5,1.0,0.1,7\n", "materials.tissue_scale", "row 1: expected 2 or 3 columns"),
+    ("-0.5,1.0\n", "materials.tissue_scale", "row 1, column force_n"),
+    ("0.5,1.0\n0.5,1.1\n", "materials.tissue_scale", "column force_n"),
+    ("0.5,1.0\n", "materials.tissue_scal", "unknown scene key"),
+    ("0.5,1.0\n", "geometry.cone_kind", "not a continuous number"),
+    ("0.5,1.0\n", "geometry.cones", "not a continuous number"),
+    ("0.5,1.0\n", "materials.tissue_scale=5:1", "empty bounds"),
+    ("0.5,1.0\n", "materials.tissue_scale=0.1:1e9", "expected"),
+    ("0.5,1.0\n", "solver.rtol", "not a model parameter"),
+])
+def test_bad_input_is_one_line_exit_2(tmp_path, capsys, csv, fit, words):
+    path = tmp_path / "curve.csv"
+    path.write_text(csv)
+    assert _run(tmp_path, "--data", str(path), "--fit", fit) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error" in line]  # (info lines aside)
+    assert len(errors) == 1 and words in errors[0], errors
+    assert not (tmp_path / "out").exists()
+
+
+def test_direct_sensitivity_equals_central_difference(case):
+    keys = ["materials.tissue_scale", "loading.force_scale", "materials.epidermis.mu"]
+    base = {"materials.tissue_scale": 0.8, "loading.force_scale": 1.0, "materials.epidermis.mu": 4000.0}
+    y, dy = case.solve(base, [0.5], THREAD_END, keys)
+    for j, key in enumerate(keys):
+        h = 1e-4 * base[key]
+        plus = case.solve({**base, key: base[key] + h}, [0.5], THREAD_END, [])[0]
+        minus = case.solve({**base, key: base[key] - h}, [0.5], THREAD_END, [])[0]
+        fd = (plus - minus) / (2 * h)
+        assert abs(dy[0, j] - fd[0]) <= 1e-5 * abs(fd[0]), (key, dy[0, j], fd[0])
+
+
+def _points(truth, noise, sd):
+    return [Point(f, float(v + e), sd, 0.001, THREAD_END, None, f"{f} N") for f, v, e in zip(FORCES, truth, noise)]
+
+
+def test_synthetic_truth_inside_interval(scene, truth):
+    noise = np.random.default_rng(1).normal(0.0, 0.01, len(FORCES))
+    keys = [parse_fit("materials.tissue_scale", scene)]
+    rec = calibrate(scene, _points(truth, noise, 0.01), keys, MPI.COMM_WORLD, curve=False)
+    p = rec["parameters"]["materials.tissue_scale"]
+    assert p["ci95"][0] < TRUE_SCALE < p["ci95"][1], p
+    assert p["ci95"][1] - p["ci95"][0] < 0.1 * TRUE_SCALE  # a 0.01 mm noise determines the scale well
+    assert rec["identifiability"]["identifiable"]
+
+
+@pytest.mark.slow  # about 35 s: the fit wanders along the valley of the collinear pair
+def test_tissue_and_force_scale_are_reported_not_identifiable(scene, truth):
+    noise = np.random.default_rng(2).normal(0.0, 0.01, len(FORCES))
+    keys = [parse_fit("materials.tissue_scale", scene), parse_fit("loading.force_scale", scene)]
+    rec = calibrate(scene, _points(truth, noise, 0.01), keys, MPI.COMM_WORLD, curve=False, max_evaluations=6)
+    ident = rec["identifiability"]
+    assert not ident["identifiable"], ident
+    # the ratio, either way up: the data fix it, not each scale
+    assert "the ratio" in ident["verdict"] and {"loading.force_scale", "materials.tissue_scale"} == set(
+        ident["determined_combination"]), ident
+
+
+@pytest.mark.slow
+def test_interval_coverage_over_noise_draws(scene, truth):
+    """Over DRAWS noise draws, the 95 % interval holds the true scale about 95 % of the time."""
+    draws, inside = 20, 0
+    keys = [parse_fit("materials.tissue_scale", scene)]
+    rng = np.random.default_rng(7)
+    for _ in range(draws):
+        rec = calibrate(scene, _points(truth, rng.normal(0.0, 0.02, len(FORCES)), 0.02), keys, MPI.COMM_WORLD,
+                        curve=False)
+        lo, hi = rec["parameters"]["materials.tissue_scale"]["ci95"]
+        inside += lo < TRUE_SCALE < hi
+    print(f"coverage {inside}/{draws}")
+    assert inside >= 16  # binomial(20, 0.95): P(inside <= 15) < 0.003
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=False, reason="measured at this commit: tissue_scale 0.2 needs 1 cutback (P1) and 4 (P2) "
+                   "with trial states inverting hypodermis elements; the first-step field is issue 14's")
+@pytest.mark.parametrize("degree", [1, 2])
+@pytest.mark.parametrize("bound", [0, 1])
+def test_tissue_scale_at_its_default_bounds_solves_without_cutbacks(degree, bound):
+    """Every value a calibration may visit solves to 1 N without a cutback (both ends of the default bounds)."""
+    from suture_fem.pipeline import run_scene
+    from suture_fem.studies.calibrate.keys import SCALE_BOUNDS
+
+    scene = load_scene("paper", [f"mesh.degree={degree}", "mesh.refinement=0", "loading.force_n=1.0",
+                                 "loading.report_forces_n=[]", f"materials.tissue_scale={SCALE_BOUNDS[bound]}"])
+    results = run_scene(scene, None, MPI.COMM_WORLD)
+    assert results["status"] == "converged"
+    assert results["cutbacks"] == 0, (results["cutbacks"], results["domain_rejections"])

@@ -123,7 +123,7 @@ class Physics:
     def form(self, name: str) -> Any:
         """The compiled dolfinx form of attribute `name` (residual, jacobian, energy, ...), compiled once."""
         if name not in self._compiled:
-            self._compiled[name] = dolfinx.fem.form(getattr(self, name))
+            self._compiled[name] = compat.form(getattr(self, name))
         return self._compiled[name]
 
     def compiled(self) -> list[str]:

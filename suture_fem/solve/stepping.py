@@ -4,7 +4,13 @@
   converges in at most ``solver.easy_iterations`` iterations, and is halved and retried from the last
   converged state when it fails; below ``solver.min_step`` the run stops with a
   :class:`~suture_fem.support.errors.SolveStopped` diagnosis that names the cause
-  (:mod:`suture_fem.solve.diagnosis`). Report points are always hit exactly.
+  (:mod:`suture_fem.solve.diagnosis`).
+* Milestones. Report points (and the end) are milestones the steps land on exactly; a step that would
+  stop short of one by less than :data:`MILESTONE_STRETCH` of a step goes straight to it (no
+  2.9 -> 3.0 N stub steps), never beyond ``solver.max_step``.
+* Futile stop. :data:`FUTILE_CUTBACKS` cutbacks in a row at the same load (the step 2^k times shorter
+  and still failing) stop the path there with the diagnosis, instead of halving on to ``solver.min_step``
+  at hundreds of Newton iterations; the diagnosis says what to change (:func:`advice`).
 * Linear predictor. Each trial starts from the extrapolation of the last two converged states (when
   that is admissible; else from the last one).
 * Physical limit. A converged state is checked against ``solver.gent_limit_fraction``
@@ -29,9 +35,15 @@ from suture_fem.solve.newton import PETSC_ERROR, NewtonSolver
 from suture_fem.solve.paths import GravityPreload, LoadRamp, Path, TimeHistory
 from suture_fem.solve.records import RampResult, StepRecord, Timings
 from suture_fem.support import compat
-from suture_fem.support.errors import SolveStopped
+from suture_fem.support.errors import SolveStopped, StopCause
 
 log = logging.getLogger("suture_fem")
+
+#: Cutbacks in a row at one load after which the path stops (the step is then 64x shorter than the
+#: one that first failed there; a step that shrinks this much without converging does not recover).
+FUTILE_CUTBACKS = 6
+#: A step is stretched to the next milestone when less than this fraction of a step would remain.
+MILESTONE_STRETCH = 0.5
 
 
 def ramp(
@@ -78,6 +90,7 @@ class _Stepper:
         self.previous: Any = None  # state before `last`, for the linear predictor
         self.s, self.prev_step, self.step = 0.0, 0.0, path.initial
         self.retried = False  # this step already retried with the other line search
+        self.cuts_here = 0  # cutbacks in a row at the current load s
 
     def run(self) -> None:
         """Step from s = 0 to the path's end (raises SolveStopped when the step falls below its minimum)."""
@@ -104,11 +117,12 @@ class _Stepper:
         self.physics.sync()
 
     def _next_trial(self) -> float:
-        """S + step, clipped to the next target (and snapped to it when less than a minimum step would remain)."""
+        """S + step, clipped to the next milestone, and stretched to it when only a stub would remain."""
         path = self.path
         target = next(t for t in path.targets if t > self.s + self.eps)
         trial = min(self.s + self.step, target)
-        return target if target - trial < path.min_step else trial
+        stub = max(path.min_step, MILESTONE_STRETCH * self.step)
+        return target if target - trial < stub and target - self.s <= path.max_step + self.eps else trial
 
     def _predict(self, trial: float) -> None:
         """Linear predictor from the last two converged states, kept only if it is admissible."""
@@ -164,6 +178,7 @@ class _Stepper:
         if its <= self.newton.options.easy_iterations:
             self.step = min(self.step * path.grow, path.max_step)
         self.retried = False
+        self.cuts_here = 0
 
     def _reject(self, trial: float, its: int, reason: str) -> None:
         """Back to the last converged state; then the next linear solver, the other line search, or a cutback."""
@@ -188,15 +203,32 @@ class _Stepper:
         path, result = self.path, self.result
         self.retried = False
         result.cutbacks += 1
+        self.cuts_here += 1
         self.step = 0.5 * (trial - self.s)
         why = failure_text(self.newton, reason, its)
         log.warning("step to %s failed (%s); cutting the step to %.3g", path.describe(trial), why, self.step)
-        if self.step < path.min_step:
+        futile = self.cuts_here >= FUTILE_CUTBACKS
+        if self.step < path.min_step or futile:
+            cause = stop_cause(self.newton)
+            stop = (f"{self.cuts_here} cutbacks in a row at this load (the step {2 ** self.cuts_here}x shorter, still "
+                    "failing)" if futile else f"{path.label} step fell below its minimum {path.min_step:g}")
             raise SolveStopped.with_history(
                 result,
-                cause=stop_cause(self.newton),
+                cause=cause,
                 load_reached=path.force(self.s),
                 attempted=path.force(trial),
-                detail=f"{path.label} step fell below its minimum {path.min_step:g} after {result.cutbacks} "
-                f"cutbacks; last failure: {why}",
+                detail=f"{stop} after {result.cutbacks} cutbacks; last failure: {why}{advice(self.physics, cause)}",
             )
+
+
+def advice(physics: Physics, cause: StopCause) -> str:
+    """What to change, for a stop the plain displacement formulation causes ('' when there is no advice).
+
+    A nearly incompressible tissue locks the displacement element: Newton diverges or elements invert
+    under a load the mixed formulation carries (docs/hardcases.md: K x10-x1000 at P2).
+    """
+    effects = getattr(physics, "effects", None)
+    if effects is None or effects.mixed or cause not in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT):
+        return ""
+    return ('; if the tissue is nearly incompressible, set effects.incompressibility = "mixed" (Taylor-Hood '
+            'displacement-pressure, free of locking), or use mesh.degree = 1')

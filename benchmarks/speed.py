@@ -7,7 +7,8 @@ Prints a table and writes JSON: CPU and wall seconds, Newton iterations per ramp
 seconds per iteration (MUMPS, from the linear-solve time), assembly seconds, peak memory, USUM at
 4 N and its error against the ledger's converged value (docs/ledger.md), and the load average.
 
-    .venv/bin/python benchmarks/speed.py [--cases run-P2,run-P1,reproduce] [--before COMMIT] [--out benchmarks/out/speed]
+    .venv/bin/python benchmarks/speed.py [--cases run-P2,run-P1,reproduce] [--before COMMIT]
+        [--out benchmarks/out/speed]
 
 Wall times swing with the load of the machine; compare the CPU seconds and the iteration counts.
 ``--peer`` (FElupe) is not implemented (see the issue-14 report).
@@ -49,13 +50,12 @@ def before_commit(explicit: str | None) -> str:
 
 def worktree(commit: str) -> Path:
     """A detached worktree of ``commit`` in /var/tmp (created once, reused)."""
+    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", commit], capture_output=True, text=True,
+                            check=True).stdout.strip()
     path = Path("/var/tmp") / f"suture_fem-speed-{commit[:10]}"
     if not (path / "suture_fem").is_dir():
         subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(path), commit], check=True,
                        capture_output=True)
-    shared = ROOT.parent / "shared"
-    if shared.is_dir() and not (path.parent / "shared").exists():
-        pass  # the package does not read ../shared at run time
     return path
 
 
@@ -98,14 +98,16 @@ def _results(out: Path) -> dict:
 
 
 def table(rows: list[dict]) -> str:
-    head = ("| case | code | CPU (s) | wall (s) | Newton its per ramp | s per it (linear) | s per it (all) | "
-            "assembly (s) | peak (MB) | USUM (mm) | error vs converged | load |\n" + "| --- " * 12 + "|\n")
+    head = ("| case | code | CPU (s) | wall (s) | Newton its per ramp | wall s per it (linear solve) | "
+            "wall s per it (Newton) | assembly, wall (s) | peak (MB) | USUM (mm) | error vs converged | load |\n"
+            + "| --- " * 12 + "|\n")
     body = ""
     for r in rows:
         usum = ", ".join(f"{u:.6f}" for u in r.get("usum_mm", []) if u is not None)
         err = f"{100 * r['usum_error_rel']:.3f} %" if "usum_error_rel" in r else "-"
         body += (f"| {r['case']} | {r['code']} | {r['cpu_s']:.1f} | {r['wall_s']:.1f} | {r.get('newton_its_per_ramp')} "
-                 f"| {r.get('linear_s_per_it', 0):.3f} | {r.get('newton_s_per_it', 0):.3f} | {r.get('assembly_s', 0):.1f} "
+                 f"| {r.get('linear_s_per_it', 0):.3f} | {r.get('newton_s_per_it', 0):.3f} "
+                 f"| {r.get('assembly_s', 0):.1f} "
                  f"| {r['peak_mb']:.0f} | {usum} | {err} | {r['load_before']:.1f} / {r['load_after']:.1f} |\n")
     return head + body
 
@@ -114,10 +116,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cases", default="run-P2,run-P1,reproduce", help=f"comma-separated, of {', '.join(CASES)}")
     ap.add_argument("--before", default=None, help="the commit to compare with (default: the one before issue 14)")
+    ap.add_argument("--now", default=None,
+                    help="a commit to measure as 'now' (a worktree too) instead of this working tree, whose "
+                    "uncommitted changes of others would enter the measurement")
     ap.add_argument("--out", default=str(ROOT / "benchmarks/out/speed"), help="output path without suffix")
     args = ap.parse_args()
     before = before_commit(args.before)
-    codes = {"before": worktree(before), "now": ROOT}
+    codes = {"before": worktree(before), "now": worktree(args.now) if args.now else ROOT}
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for case in args.cases.split(","):

@@ -2,7 +2,8 @@
 
 The background size field of :mod:`suture_fem.geometry.gmsh_model` is ``h = suture`` on the suture's
 surface, growing linearly to ``far`` over ``grading`` mm, and ``rim`` within ``4 suture`` of a cone
-corner. A triangle of size h covers about sqrt(3)/4 h^2, so the number of triangles is about the
+corner, and a size growing from ``sizes.fillet`` on each fillet arc back to ``rim``.
+A triangle of size h covers about sqrt(3)/4 h^2, so the number of triangles is about the
 integral of 4 / (sqrt(3) h^2) over the half-section, computed here on a grid. The constant that turns
 that into gmsh's count was measured on the paper scene (:data:`CALIBRATION`).
 """
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from suture_fem.geometry.gmsh_model import MeshSizes
+from suture_fem.geometry.gmsh_model import FILLET_GRADING, MeshSizes
 from suture_fem.geometry.section import Geometry
 from suture_fem.scene.schema import MeshSection
 from suture_fem.support.errors import SceneError
@@ -65,10 +66,30 @@ def estimate(geometry: Geometry, sizes: MeshSizes, degree: int) -> MeshEstimate:
         h = np.minimum(h, rim)
     inside = (zz <= g.length) | (rr <= g.r_thread)  # the free thread end is the only part above the tissue
     cell_area = (g.r_epidermis / n_r) * (g.z_end / n_z)
-    cells = CALIBRATION * float(np.sum(inside * cell_area * 4.0 / (math.sqrt(3.0) * h**2)))
+    cells = CALIBRATION * float(np.sum(inside * cell_area * 4.0 / (math.sqrt(3.0) * h**2)) + _fillet_cells(g, sizes))
     nodes = cells / 2.0 * (1 if degree == 1 else 4)  # a triangulation has about twice as many cells as vertices
     unknowns = int(2 * nodes)
     return MeshEstimate(int(cells), unknowns, BASE_GIB + unknowns * BYTES_PER_UNKNOWN / 2**30)
+
+
+def _fillet_cells(g: Geometry, sizes: MeshSizes) -> float:
+    """Triangles the fillet refinement adds (the grid is too coarse to see it).
+
+    Around each arc (taken as a point: a disc of radius FILLET_GRADING rim) the size grows linearly from
+    ``sizes.fillet(arc length)`` to the rim size; less the rim-size triangles the grid integral counts there.
+    """
+    extra = 0.0
+    reach = FILLET_GRADING * sizes.rim
+    d = (np.arange(200) + 0.5) * reach / 200
+    for cone in g.cones:
+        for a, c, b in (seg for kind, seg in cone.outline if kind == "arc"):
+            radius = math.dist(a, c)
+            angle = math.acos(max(-1.0, min(1.0, ((a[0] - c[0]) * (b[0] - c[0]) + (a[1] - c[1]) * (b[1] - c[1]))
+                                                / radius**2)))
+            h0 = sizes.fillet(radius * angle)
+            h = h0 + (sizes.rim - h0) * d / reach
+            extra += float(np.sum(2 * np.pi * d * (reach / 200) * 4.0 / math.sqrt(3.0) * (1 / h**2 - 1 / sizes.rim**2)))
+    return extra
 
 
 def machine_memory_gib() -> float:

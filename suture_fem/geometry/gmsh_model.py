@@ -27,12 +27,25 @@ class MeshSizes:
     rim: float
     far: float
     grading: float
+    fillet_elements: int = 8
 
     @classmethod
     def from_section(cls, m: MeshSection) -> MeshSizes:
-        """Sizes of a scene's ``[mesh]`` section: each halved ``refinement`` times (the rim never coarser)."""
+        """Sizes of a scene's ``[mesh]`` section: each halved ``refinement`` times (the rim never coarser).
+
+        The elements along a fillet arc double with every refinement.
+        """
         f = 0.5**m.refinement
-        return cls(m.size_suture_mm * f, min(m.size_rim_mm, m.size_suture_mm) * f, m.size_far_mm * f, m.grading_mm)
+        return cls(m.size_suture_mm * f, min(m.size_rim_mm, m.size_suture_mm) * f, m.size_far_mm * f, m.grading_mm,
+                   m.fillet_elements * 2**m.refinement)
+
+    def fillet(self, arc_length: float) -> float:
+        """Element size on a fillet arc of that length: ``fillet_elements`` along it, never coarser than the rim."""
+        return min(arc_length / self.fillet_elements, self.rim)
+
+
+#: A fillet's refinement grades back to the rim size over this many rim sizes from the arc.
+FILLET_GRADING = 3.0
 
 
 def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture") -> None:
@@ -158,10 +171,50 @@ def _size_fields(g: Geometry, sizes: MeshSizes, facets: dict[int, set[int]]) -> 
         field.setNumber(t_rim, "DistMin", 0.0)
         field.setNumber(t_rim, "DistMax", 4.0 * sizes.suture)
         fields.append(t_rim)
+    fields += _fillet_fields(sizes)
     combined = field.add("Min")
     field.setNumbers(combined, "FieldsList", fields)
     field.setAsBackgroundMesh(combined)
     for option in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
         gmsh.option.setNumber(option, 0)
 
+
+def fillet_arcs() -> list[tuple[int, float]]:
+    """(curve tag, length in mm) of every circular arc of the current gmsh model: the cones' fillets."""
+    import gmsh
+
+    arcs = []
+    for _, c in gmsh.model.getEntities(1):
+        if gmsh.model.getType(1, c) == "Circle":
+            lo, hi = gmsh.model.getParametrizationBounds(1, c)
+            ends = gmsh.model.getValue(1, c, [lo[0], hi[0]])
+            mid = gmsh.model.getValue(1, c, [0.5 * (lo[0] + hi[0])])
+            chord = math.dist(ends[:2], ends[3:5])
+            half = math.dist(ends[:2], mid[:2])
+            # the arc's length from its chord c and the chord of its half h: radius = h^2 / sqrt(4 h^2 - c^2)
+            radius = half**2 / math.sqrt(max(4 * half**2 - chord**2, 1e-300))
+            arcs.append((c, 2 * radius * 2 * math.asin(min(1.0, half / (2 * radius)))))
+    return arcs
+
+
+def _fillet_fields(sizes: MeshSizes) -> list[int]:
+    """One size field per fillet arc: ``sizes.fillet(length)`` on the arc, graded to the rim size nearby."""
+    import gmsh
+
+    field = gmsh.model.mesh.field
+    out = []
+    for curve, length in fillet_arcs():
+        h = sizes.fillet(length)
+        d = field.add("Distance")
+        field.setNumbers(d, "CurvesList", [curve])
+        compat.gmsh_set_distance_sampling(d, int(max(20, 4 * length / h)))
+        t = field.add("Threshold")
+        field.setNumber(t, "InField", d)
+        field.setNumber(t, "SizeMin", h)
+        field.setNumber(t, "SizeMax", sizes.rim)
+        field.setNumber(t, "DistMin", 0.0)
+        field.setNumber(t, "DistMax", FILLET_GRADING * sizes.rim)
+        field.setNumber(t, "StopAtDistMax", 1)  # no constraint beyond: the other fields size the rest
+        out.append(t)
+    return out
 

@@ -211,3 +211,7 @@ class Quantity:
     def in_region(self, state: State, region: str) -> dict[str, Any]:
         """Entries of one region (collective)."""
         return {}
+
+    def in_tissue(self, state: State) -> dict[str, Any]:
+        """Maxima of the whole tissue that are not the largest of the layers' (collective): they replace it."""
+        return {}

@@ -20,7 +20,8 @@ class Eptoeqv(Quantity):
     @staticmethod
     def describe(output: OutputSection) -> dict[str, str]:
         """Where the maximum is taken."""
-        return {"eptoeqv": "maximum over quadrature points of the energy integral"}
+        return {"eptoeqv": "maximum over quadrature points of the energy integral; MESH-DEPENDENT where it sits at a "
+                "sharp corner (a singularity), not a material strain: compare eptoeqv_fillet and eptoeqv_cd"}
 
     def in_region(self, state: State, region: str) -> dict[str, Any]:
         """The region's maximum equivalent strain, everywhere and outside the rims (collective)."""

@@ -18,9 +18,11 @@ import numpy as np
 
 from suture_fem.geometry.regions import TISSUE_REGIONS
 from suture_fem.outputs.base import REPORT_REGIONS, Maximum, Quantity, Setup, State
+from suture_fem.outputs.critical_distance import CriticalDistance
 from suture_fem.outputs.energy import StrainEnergy
 from suture_fem.outputs.eptoeqv import Eptoeqv
 from suture_fem.outputs.fields import cell_maxima
+from suture_fem.outputs.fillet_peak import FilletPeak
 from suture_fem.outputs.jacobian import JRange
 from suture_fem.outputs.reaction import Reaction
 from suture_fem.outputs.seqv import Seqv
@@ -30,7 +32,8 @@ from suture_fem.physics.problem import Physics
 from suture_fem.scene.schema import OutputSection
 
 #: Every quantity, in the order of the record; a scene's ``output.quantities`` selects the optional ones.
-QUANTITIES: tuple[type[Quantity], ...] = (ThreadEnd, StrainEnergy, Reaction, Usum, Seqv, Eptoeqv, JRange)
+QUANTITIES: tuple[type[Quantity], ...] = (ThreadEnd, StrainEnergy, Reaction, Usum, Seqv, Eptoeqv, FilletPeak,
+                                          CriticalDistance, JRange)
 
 #: (value, location in mm, region) of the largest maximum found so far.
 Best = tuple[float, Any, str]
@@ -78,6 +81,11 @@ class Outputs:
             out[name + "_at_mm"] = where
             out[name + "_region"] = region
         regions["tissue"] = _tissue(regions, overall)
+        for quantity in self.active:  # whole-tissue maxima that are not the largest layer's
+            for name, entry in quantity.in_tissue(state).items():
+                regions["tissue"][name], regions["tissue"][name + "_at_mm"] = entry
+                regions["tissue"][name + "_region"] = "tissue"
+                out[name], out[name + "_at_mm"], out[name + "_region"] = entry.value, entry.at_mm, "tissue"
         out["regions"] = regions
         out["where"] = dict(self.where)
         return out

@@ -25,7 +25,9 @@ class Seqv(Quantity):
     def describe(output: OutputSection) -> dict[str, str]:
         """Where the maxima are taken."""
         return {
-            "seqv_pa": "maximum over quadrature points of the energy integral",
+            "seqv_pa": "maximum over quadrature points of the energy integral; MESH-DEPENDENT where it sits at a "
+            "sharp corner (a singularity: it grows with every refinement), not a material stress: compare "
+            "seqv_fillet_pa and seqv_cd_pa",
             "seqv_outside_rim_pa": f"as seqv_pa, over points farther than {output.rim_exclusion_mm:g} mm "
             "from every cone corner and from where the thread crosses the tissue's end faces",
         }

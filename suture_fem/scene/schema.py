@@ -175,6 +175,7 @@ class MeshSection:
     size_rim_mm: float = key(_length(10.0), MM)
     size_far_mm: float = key(_length(100.0), MM)
     grading_mm: float = key(_length(1000.0), MM)
+    fillet_elements: int = key(Rule("int", lo=1, hi=256))
 
 
 @dataclass(frozen=True)
@@ -211,6 +212,7 @@ class OutputSection:
 
     fields: bool = key(Rule("bool"))
     rim_exclusion_mm: float = key(_pos(100.0, lo_open=False), MM)
+    critical_distance_mm: float = key(_pos(10.0, lo_open=False), MM)
     quantities: tuple[str, ...] = key(Rule("strs", choices=("usum", "seqv", "eptoeqv")))
 
 

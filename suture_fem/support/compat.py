@@ -140,6 +140,32 @@ def eval_expression(compiled: Any, mesh: Any, cells: np.ndarray) -> np.ndarray:
     return compiled.eval(mesh, cells)  # pragma: no cover
 
 
+def cell_locator(mesh: Any, cells: np.ndarray) -> Any:
+    """A function of points (m, 3): (point index, cell) of every one of the given local cells containing each point.
+
+    A point on a shared edge is in both cells. Built once (a bounding-box tree of ``cells``).
+    """
+    import dolfinx.geometry as geo
+
+    cells = np.asarray(cells, dtype=np.int32)
+    tdim = mesh.topology.dim
+    if len(cells) == 0:
+        return lambda points: (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32))
+    if hasattr(geo, "bb_tree"):  # pragma: no cover
+        tree = geo.bb_tree(mesh, tdim, cells)
+        collide = geo.compute_collisions_points
+    else:
+        tree = geo.BoundingBoxTree(mesh, tdim, cells)
+        collide = geo.compute_collisions
+
+    def locate(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        hits = geo.compute_colliding_cells(mesh, collide(tree, points), points)
+        return np.repeat(np.arange(len(points)), np.diff(hits.offsets)), np.asarray(hits.array, dtype=np.int32)
+
+    return locate
+
+
 def vtk_mesh(space: Any) -> tuple[Any, Any, Any]:
     """(cells, cell types, points) of a function space's dof grid, for ``pyvista.UnstructuredGrid``.
 

@@ -1,0 +1,173 @@
+"""Averages of a field over a disc of the r-z section, weighted by 2 pi r, and their maximum over positions.
+
+The theory of critical distances (Taylor 2007, "The Theory of Critical Distances", the area method)
+judges a notched part by its stress averaged over a small named region around the hot spot instead of
+the peak: an integral of the field, it has a limit under mesh refinement even at a sharp corner.
+
+The field is the stress or strain at the quadrature points, fitted by least squares with one linear
+function (a + b r + c z) per cell (:class:`CellField`), so a field linear in each cell is reproduced
+exactly. The average over the disc of radius R centred at (r0, z0) intersected with a region is
+
+    A(r0, z0) = int f 2 pi r dA / int 2 pi r dA   over disc and region,
+
+computed with a fixed product rule on the disc (Gauss-Legendre in the radius with the polar weight,
+equally spaced angles), the same points whatever the mesh: on a field the mesh represents exactly the
+average is the same on every mesh, and on a polynomial field of degree <= 9 the rule is exact. Points
+of the rule that fall outside the region (in the suture, outside the body) are left out of both
+integrals. The maximum over positions is a grid search on grids fixed in space (spacing R/4, then
+R/16, then R/64 around the best centre so far, each moved while its best centre is on its edge: :data:`GRID_LEVELS`),
+over centres inside the region,
+started from the region's largest point values: fixed grids make it the same on every mesh and every
+partition, which a continuous optimiser's path would not be.
+
+Collective: every rank locates the rule's points in its owned cells, the values are reduced with MPI
+MAX (a point on an edge between two cells takes the larger value), and every rank then computes the
+same averages from the same array.
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from suture_fem.support import compat
+
+#: Points of the disc rule: Gauss-Legendre points in the radius, equally spaced angles.
+RADIAL_POINTS, ANGULAR_POINTS = 6, 24
+#: Grid search: (spacing, half-width in spacings) of each level, as fractions of the radius.
+GRID_LEVELS = ((1 / 4, 4), (1 / 16, 4), (1 / 64, 4))
+#: Largest number of times a level's grid moves toward a better centre on its edge.
+MAX_MOVES = 20
+#: Largest point values of a region from which the search starts (taken at least R apart).
+STARTS = 3
+
+
+def disc_rule(radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """(offsets (m, 2), area weights (m,)) of the product rule on a disc of ``radius``; the weights sum to pi R^2."""
+    x, w = np.polynomial.legendre.leggauss(RADIAL_POINTS)
+    rho = 0.5 * radius * (x + 1.0)
+    w_rho = 0.5 * radius * w * rho  # polar Jacobian rho d rho
+    theta = 2.0 * np.pi * (np.arange(ANGULAR_POINTS) + 0.5) / ANGULAR_POINTS
+    offsets = np.stack([np.outer(rho, np.cos(theta)).ravel(), np.outer(rho, np.sin(theta)).ravel()], axis=1)
+    weights = np.repeat(w_rho, ANGULAR_POINTS) * (2.0 * np.pi / ANGULAR_POINTS)
+    return offsets, weights
+
+
+class CellField:
+    """A field linear in each cell of a set of local owned cells, fitted to its values at points of the cells.
+
+    ``xy`` (n_cells, q, 2) and ``values`` (n_cells, q): the points of each cell and the field there, in
+    the mesh's coordinate units. With fewer than 3 points per cell the fit is the cell's mean.
+    ``locate``: ``compat.cell_locator(mesh, cells)`` when the caller keeps one for several fields.
+    """
+
+    def __init__(self, mesh: Any, cells: np.ndarray, xy: np.ndarray, values: np.ndarray, locate: Any = None):
+        self.comm = mesh.comm
+        self.cells = np.asarray(cells, dtype=np.int32)
+        self.centre = xy.mean(axis=1) if len(cells) else np.zeros((0, 2))
+        self.coeffs = _fit(xy - self.centre[:, None, :], values) if len(cells) else np.zeros((0, 3))
+        num = mesh.topology.index_map(mesh.topology.dim).size_local
+        num += mesh.topology.index_map(mesh.topology.dim).num_ghosts
+        self.row = np.full(num, -1, dtype=np.int64)
+        self.row[self.cells] = np.arange(len(self.cells))
+        self.locate = locate if locate is not None else compat.cell_locator(mesh, self.cells)
+
+    def at(self, points: np.ndarray) -> np.ndarray:
+        """The field at points (m, 2); -inf where no cell of the field (on any rank) holds the point (collective)."""
+        local = np.full(len(points), -np.inf)
+        if len(points):
+            idx, cells = self.locate(np.column_stack([points, np.zeros(len(points))]))
+            rows = self.row[cells]
+            d = points[idx] - self.centre[rows]
+            vals = self.coeffs[rows, 0] + self.coeffs[rows, 1] * d[:, 0] + self.coeffs[rows, 2] * d[:, 1]
+            np.maximum.at(local, idx, vals)
+        out = np.empty_like(local)
+        from mpi4py import MPI
+
+        self.comm.Allreduce(local, out, op=MPI.MAX)
+        return out
+
+
+def _fit(d: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Per-cell least-squares coefficients (a, b, c) of a + b dr + c dz (offsets d from the cell's centre)."""
+    if d.shape[1] < 3:
+        return np.column_stack([values.mean(axis=1), np.zeros((len(values), 2))])
+    scale = np.maximum(np.abs(d).max(axis=(1, 2)), 1e-300)[:, None, None]
+    a = np.concatenate([np.ones(d.shape[:2] + (1,)), d / scale], axis=2)
+    coef = np.linalg.solve(np.einsum("nqi,nqj->nij", a, a), np.einsum("nqi,nq->ni", a, values))
+    return coef / np.concatenate([np.ones((len(d), 1)), scale[:, :, 0].repeat(2, axis=1)], axis=1)
+
+
+class DiscMax(NamedTuple):
+    """The largest disc average and the centre of its disc; (-inf, None) where the field has no cells."""
+
+    value: float
+    at: list[float] | None
+
+
+def disc_averages(field: CellField, centres: np.ndarray, radius: float) -> np.ndarray:
+    """The 2 pi r-weighted average over each disc around ``centres`` (k, 2) and the field's cells (collective).
+
+    -inf for a centre that no cell of the field holds (the disc is centred outside the region).
+    """
+    offsets, weights = disc_rule(radius)
+    points = (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
+    values = field.at(np.concatenate([centres, points])).reshape(-1)
+    inside, vals = values[: len(centres)], values[len(centres):].reshape(len(centres), -1)
+    w = weights[None, :] * np.abs(points[:, 0]).reshape(len(centres), -1)
+    w = np.where(np.isfinite(vals), w, 0.0)
+    total = w.sum(axis=1)
+    avg = np.where(total > 0, np.sum(w * np.where(np.isfinite(vals), vals, 0.0), axis=1) / np.maximum(total, 1e-300),
+                   -np.inf)
+    return np.where(np.isfinite(inside), avg, -np.inf)
+
+
+def max_disc_average(field: CellField, starts: np.ndarray, radius: float) -> DiscMax:
+    """The largest disc average over centres inside the field's cells, by grid search from ``starts`` (collective).
+
+    ``starts`` (k, 2) must be the same on every rank.
+    """
+    if len(starts) == 0:
+        return DiscMax(-np.inf, None)
+    best_value, best = -np.inf, None
+    for s in starts:
+        centre = np.asarray(s, dtype=float)
+        value = -np.inf
+        for spacing, half in GRID_LEVELS:
+            value, centre = _climb(field, centre, value, spacing * radius, half, radius)
+        if value > best_value:
+            best_value, best = value, [float(c) for c in centre]
+    return DiscMax(best_value, best)
+
+
+def _climb(field: CellField, centre: np.ndarray, value: float, h: float, half: int,
+           radius: float) -> tuple[float, np.ndarray]:
+    """The best centre of a (2 half + 1)^2 grid of spacing h fixed in space, moved until the best is inside it."""
+    k = np.arange(-half, half + 1) * h
+    for _ in range(MAX_MOVES):
+        base = np.round(centre / h) * h  # grid points fixed in space, not on the mesh
+        grid = np.stack(np.meshgrid(base[0] + k, base[1] + k, indexing="ij"), axis=-1).reshape(-1, 2)
+        avgs = disc_averages(field, grid, radius)
+        j = int(np.argmax(avgs))
+        if not avgs[j] > value:
+            break
+        value, centre = float(avgs[j]), grid[j]
+        i, m = divmod(j, 2 * half + 1)
+        if 0 < i < 2 * half and 0 < m < 2 * half:  # inside the window: this level is done
+            break
+    return value, centre
+
+
+def top_points(comm: Any, values: np.ndarray, xy: np.ndarray, separation: float, count: int = STARTS) -> np.ndarray:
+    """The ``count`` largest point values over all ranks, at least ``separation`` apart: their (k, 2) positions."""
+    order = np.argsort(values)[::-1][: 50 * count]
+    local = [(float(values[i]), float(xy[i, 0]), float(xy[i, 1])) for i in order]
+    merged = sorted((t for part in comm.allgather(local) for t in part), reverse=True)
+    chosen: list[tuple[float, float]] = []
+    for _, r, z in merged:
+        if all(np.hypot(r - a, z - b) >= separation for a, b in chosen):
+            chosen.append((r, z))
+        if len(chosen) == count:
+            break
+    return np.array(chosen, dtype=float).reshape(-1, 2)

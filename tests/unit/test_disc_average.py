@@ -1,0 +1,83 @@
+"""The critical-distance average (outputs/disc.py): the analytic average of a smooth field, the same
+average on every mesh for a field the mesh represents exactly, and the maximum over positions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from scipy.optimize import brentq
+
+from suture_fem.outputs.disc import CellField, disc_averages, disc_rule, max_disc_average
+
+#: A piece of the r-z section away from the axis: r in [0.5, 1.5], z in [0, 1].
+BOX = [[0.5, 0.0], [1.5, 1.0]]
+RADIUS = 0.15
+
+
+def _mesh(n, diagonal="right"):
+    import dolfinx.mesh
+
+    diagonal = getattr(dolfinx.mesh.DiagonalType, diagonal)
+    return dolfinx.mesh.create_rectangle(MPI.COMM_WORLD, [np.array(p) for p in BOX], [n, n],
+                                         dolfinx.mesh.CellType.triangle, diagonal=diagonal)
+
+
+def _field(mesh, f):
+    """The field f(r, z) sampled at three interior points of every owned cell, as the outputs do."""
+    from suture_fem.support import compat
+
+    num = mesh.topology.index_map(2).size_local
+    cells = np.arange(num, dtype=np.int32)
+    xv = mesh.geometry.x[compat.geometry_dofs(mesh)[cells][:, :3], :2]  # (n, 3, 2) vertices
+    bary = np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
+    xy = np.einsum("qv,nvd->nqd", bary, xv)
+    return CellField(mesh, cells, xy, f(xy[..., 0], xy[..., 1]))
+
+
+def test_the_disc_rule_weights_sum_to_the_area():
+    offsets, weights = disc_rule(RADIUS)
+    assert weights.sum() == pytest.approx(np.pi * RADIUS**2, rel=1e-13)
+    assert np.max(np.hypot(*offsets.T)) < RADIUS
+
+
+def test_the_average_of_a_smooth_field_is_its_analytic_average():
+    # 2 pi r-weighted averages over a disc of radius R at (r0, z0): <r^2> = r0^2 + 3 R^2 / 4,
+    # <z^3> = z0^3 + 3 z0 R^2 / 4 (the odd angular moments vanish).
+    centres = np.array([[0.9, 0.4], [1.1, 0.6]])
+    exact = centres[:, 0] ** 2 + 3 * RADIUS**2 / 4 + centres[:, 1] ** 3 + 3 * centres[:, 1] * RADIUS**2 / 4
+    errors = []
+    for n in (20, 40):
+        got = disc_averages(_field(_mesh(n), lambda r, z: r**2 + z**3), centres, RADIUS)
+        errors.append(np.max(np.abs(got - exact) / exact))
+    assert errors[1] < 1e-5
+    assert errors[0] / errors[1] > 3.5  # the per-cell linear fit: at least second order in h
+
+
+def test_the_average_is_the_same_on_every_mesh_for_a_field_it_represents_exactly():
+    f = lambda r, z: 2.0 + 3.0 * r - 1.5 * z  # noqa: E731
+    # discs inside, cut by the boundary, and one centred outside (none)
+    centres = np.array([[1.0, 0.5], [0.55, 0.3], [1.45, 0.95], [1.7, 0.5]])
+    a = disc_averages(_field(_mesh(12, "right"), f), centres, RADIUS)
+    b = disc_averages(_field(_mesh(31, "left"), f), centres, RADIUS)
+    assert a[:3] == pytest.approx(b[:3], rel=1e-12)
+    assert a[3] == b[3] == -np.inf
+    # fully inside: the analytic average 2 + 3 (r0 + R^2 / (4 r0)) - 1.5 z0
+    assert a[0] == pytest.approx(2 + 3 * (1.0 + RADIUS**2 / 4.0) - 0.75, rel=1e-12)
+    ma = max_disc_average(_field(_mesh(12, "right"), f), np.array([[1.4, 0.1]]), RADIUS)
+    mb = max_disc_average(_field(_mesh(31, "left"), f), np.array([[1.4, 0.1]]), RADIUS)
+    assert ma.value == pytest.approx(mb.value, rel=1e-12) and ma.at == pytest.approx(mb.at, abs=1e-12)
+
+
+def test_the_maximum_over_positions_finds_the_analytic_maximum():
+    # f = 1 - (r - r1)^2 - (z - z1)^2: A(r0, z0) = 1 - (r0 - r1)^2 - (r0 - r1) R^2 / (2 r0) - R^2 / 2 - (z0 - z1)^2,
+    # largest at z0 = z1 and 2 (r0 - r1) + R^2 r1 / (2 r0^2) = 0.
+    r1, z1 = 1.0, 0.5
+    r0 = brentq(lambda r: 2 * (r - r1) + RADIUS**2 * r1 / (2 * r**2), 0.8, 1.0)
+    exact = 1 - (r0 - r1) ** 2 - (r0 - r1) * RADIUS**2 / (2 * r0) - RADIUS**2 / 2
+    n = 80
+    found = max_disc_average(_field(_mesh(n), lambda r, z: 1 - (r - r1) ** 2 - (z - z1) ** 2),
+                             np.array([[1.2, 0.3]]), RADIUS)
+    assert found.value == pytest.approx(exact, rel=1e-4)
+    # A is flat near its top: the per-cell fit's O(h^2) error moves the maximiser by a fraction of an element
+    assert found.at == pytest.approx([r0, z1], abs=0.5 / n)

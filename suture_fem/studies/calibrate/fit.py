@@ -67,7 +67,7 @@ def fit(model: Model, max_evaluations: int = 30) -> dict[str, Any]:
     hi = np.array([k.hi for k in keys]) / start
     result = optimize.least_squares(lambda x: evaluate(x)[0], np.ones(len(keys)), jac=lambda x: evaluate(x)[1],
                                     bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=max_evaluations,
-                                    xtol=1e-8, ftol=1e-10, gtol=1e-10)
+                                    xtol=1e-6, ftol=1e-8, gtol=1e-8)
     theta = result.x * start
     r, Jx = evaluate(result.x)
     y = r * s + data

@@ -15,7 +15,9 @@ from tests.mpi.conftest import REL, SCENE
 pytestmark = pytest.mark.mpi
 
 QUANTITIES = ("usum_mm", "seqv_pa", "eptoeqv", "seqv_outside_rim_pa", "thread_end_displacement_mm",
-              "reaction_force_n", "strain_energy_j")
+              "reaction_force_n", "strain_energy_j", "seqv_cd_pa", "eptoeqv_cd", "seqv_fillet_pa", "eptoeqv_fillet")
+#: The critical-distance averages of each tissue layer and of the whole tissue (issue 17).
+CD_REGIONS = ("hypodermis", "dermis", "epidermis", "tissue")
 REGIONS = ("hypodermis", "dermis", "epidermis", "suture", "tissue")
 
 
@@ -36,6 +38,11 @@ def assert_same_state(a: dict, b: dict) -> None:
         for region in REGIONS:
             for q in ("usum_mm", "seqv_pa", "eptoeqv"):
                 assert rb["regions"][region][q] == pytest.approx(ra["regions"][region][q], rel=REL), (region, q)
+        for region in CD_REGIONS:
+            for q in ("seqv_cd_pa", "eptoeqv_cd"):
+                ea, eb = ra["regions"][region], rb["regions"][region]
+                assert eb[q] == pytest.approx(ea[q], rel=REL), (region, q)
+                assert eb[q + "_at_mm"] == pytest.approx(ea[q + "_at_mm"], abs=1e-9), (region, q)  # the same disc
     fa, fb = np.array(a["force_displacement"]), np.array(b["force_displacement"])
     assert fa.shape == fb.shape
     assert fb[:, 0] == pytest.approx(fa[:, 0], rel=1e-12)  # the same load steps

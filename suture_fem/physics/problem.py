@@ -153,7 +153,7 @@ class Physics:
         exact partial derivative. The Function's value follows the Constant's at each call.
         """
         if key not in self._derivatives:
-            Q = dolfinx.fem.FunctionSpace(self.mesh, ("DG", 0))
+            Q = compat.scalar_space(self.mesh, "DG", 0)
             value, one = dolfinx.fem.Function(Q), dolfinx.fem.Function(Q)
             one.x.array[:] = 1.0
             replaced = ufl.replace(self.residual, {self.parameters[key]: value})
@@ -165,6 +165,11 @@ class Physics:
     def traction_for(self, force_n: float) -> float:
         """Traction (Pa) whose 2 pi r-weighted integral over the pulled face is force_n."""
         return force_n / self.pull_area
+
+    @property
+    def applied_traction(self) -> Any:
+        """The traction the pull applies, as it enters the forms: ``traction * loading.force_scale`` (UFL)."""
+        return self.traction * self.parameters["loading.force_scale"] if self.parameters else self.traction
 
     def applied_force_n(self) -> float:
         """The axial force the pull applies now (N): the nominal force times ``loading.force_scale``."""

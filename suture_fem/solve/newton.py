@@ -297,7 +297,8 @@ def _potential_form(problem: Discrete) -> Any:
     effects = getattr(problem, "effects", None)
     if effects is None or effects.mixed or effects.inertia or effects.gravity or getattr(problem, "degree", 0) != 1:
         return None
-    return compat.form(problem.energy - problem.traction * problem.end_displacement)
+    traction = getattr(problem, "applied_traction", problem.traction)  # with loading.force_scale
+    return compat.form(problem.energy - traction * problem.end_displacement)
 
 
 def _reason_name(reason: int) -> str:

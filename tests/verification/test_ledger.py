@@ -39,7 +39,9 @@ def test_run_error_estimate_attaches_plus_minus(tmp_path):
     from suture_fem.cli import main
 
     out = tmp_path / "run"
-    assert main(["run", "paper", *sets(FAST + ["geometry.cones=1"]), "--error-estimate", "--out", str(out)]) == 0
+    # sharp rims (the default rounds the base rims, and the peak then sits on the resolved fillet)
+    scene = FAST + ["geometry.cones=1", "geometry.cone_fillet_mm=0"]
+    assert main(["run", "paper", *sets(scene), "--error-estimate", "--out", str(out)]) == 0
     res = json.loads((out / "results.json").read_text())
     est = res["error_estimate"]
     usum = est["at_forces"][-1]["usum_mm"]
@@ -52,6 +54,10 @@ def test_run_error_estimate_attaches_plus_minus(tmp_path):
     corners = res["geometry"]["corners_mm"]
     assert min(math.dist(peak["at_mm"], c) for c in corners) <= res["scene"]["output"]["rim_exclusion_mm"]
     assert peak["plus_minus"] is None and "singularity" in peak["note"]
+    # the critical-distance average has a limit even there: it gets its +-
+    average = est["at_forces"][-1]["regions.tissue.seqv_cd_pa"]
+    assert average["plus_minus"] == pytest.approx(abs(average["value"] - average["coarse_value"]))
+    assert average["plus_minus"] < 0.5 * average["value"]
 
 
 def test_convergence_command_writes_the_ledger(tmp_path):

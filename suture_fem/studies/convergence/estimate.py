@@ -32,6 +32,7 @@ def coarser_scene(scene: Scene) -> Scene:
         values: dict[str, Any] = {"mesh.refinement": mesh.refinement - 1}
     else:
         values = {f"mesh.{key}": getattr(mesh, key) * REFINEMENT_RATIO for key in _SIZES}
+        values["mesh.fillet_elements"] = max(1, mesh.fillet_elements // int(REFINEMENT_RATIO))  # twice as long
     return scene.with_values({**values, "output.fields": False})
 
 
@@ -58,7 +59,9 @@ def _entry(rec: dict[str, Any], crec: dict[str, Any], corners: list[tuple[float,
         if fine is None or rough is None:
             continue
         at = q.where(rec)
-        if q.path != "usum_mm" and at is not None and any(math.dist(at, c) <= exclusion for c in corners):
+        averaged = q.path.endswith(("_cd", "_cd_pa"))  # a disc average has a limit wherever its disc is
+        if q.path != "usum_mm" and not averaged and at is not None and any(math.dist(at, c) <= exclusion
+                                                                            for c in corners):
             entry[q.path] = {"value": fine, "coarse_value": rough, "plus_minus": None, "at_mm": list(at),
                              "note": f"maximum within output.rim_exclusion_mm = {exclusion:g} mm of a sharp cone "
                                      "corner: a singularity, no limit to estimate (use the *_outside_rim "

@@ -4,7 +4,9 @@ The raw maximum stress at a sharp cone rim is a stress singularity: its "value" 
 refinement. Next to it the ledger follows maxima that have a limit: the maximum outside
 ``output.rim_exclusion_mm`` of every rim (``seqv_outside_rim_pa``), and the tissue's maxima farther
 than each of :data:`SINGULAR_FREE_MM` from every singular point (see
-:mod:`suture_fem.studies.convergence.singular`).
+:mod:`suture_fem.studies.convergence.singular`), and the two measures that converge by construction
+(issue 17): the peak on the resolved fillet (``seqv_fillet_pa``) and the critical-distance average
+(``seqv_cd_pa``), with their strains.
 """
 
 from __future__ import annotations
@@ -72,7 +74,11 @@ QUANTITIES = (
     Quantity("usum_mm", "USUM", "mm"),
     Quantity("seqv_pa", "SEQV (overall max, in the suture)", "Pa"),
     Quantity("eptoeqv", "EPTOEQV (overall max)", "-"),
-    Quantity("regions.tissue.seqv_pa", "SEQV tissue (raw max)", "Pa"),
+    Quantity("regions.tissue.seqv_pa", "SEQV tissue (raw max; mesh-dependent at a sharp corner)", "Pa"),
+    Quantity("regions.tissue.seqv_fillet_pa", "SEQV tissue, peak on the resolved fillet", "Pa"),
+    Quantity("regions.tissue.eptoeqv_fillet", "EPTOEQV tissue, peak on the resolved fillet", "-"),
+    Quantity("regions.tissue.seqv_cd_pa", "SEQV tissue, critical-distance average", "Pa"),
+    Quantity("regions.tissue.eptoeqv_cd", "EPTOEQV tissue, critical-distance average", "-"),
     Quantity("regions.tissue.seqv_outside_rim_pa", "SEQV tissue outside rims", "Pa"),
     Quantity("regions.tissue.eptoeqv_outside_rim", "EPTOEQV tissue outside rims", "-"),
     *(Quantity(f"ledger.tissue_seqv_pa_beyond_{beyond(d)}", f"SEQV tissue > {d:g} mm from singular points", "Pa")

@@ -46,9 +46,9 @@ class CriticalDistance(Quantity):
                 "is largest (theory of critical distances); _at_mm is the disc's centre; converges under refinement")
         return {"seqv_cd_pa": "von Mises stress " + disc, "eptoeqv_cd": "equivalent Hencky strain " + disc}
 
-    def __init__(self, setup: Setup):
+    def __init__(self, setup: Setup, radius_mm: float | None = None):
         super().__init__(setup)
-        self.radius = setup.output.critical_distance_mm * MM
+        self.radius = (setup.output.critical_distance_mm if radius_mm is None else radius_mm) * MM
         self.fields = [(name, fn) for name, option, fn in FIELDS if option in setup.quantities]
         points = setup.points
         mesh = setup.physics.mesh

@@ -1,4 +1,4 @@
-"""The study's entry: calibrate (only if asked), solve every cone count, compare, draw, write."""
+"""The study's entry: calibrate one parameter on one value, solve every cone count, compare, draw, write."""
 
 from __future__ import annotations
 
@@ -8,34 +8,40 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.scene import Scene
-from suture_fem.studies.reproduce.calibration import CALIBRATED, calibrate
-from suture_fem.studies.reproduce.compare import comparison, ours, rel
+from suture_fem.studies.reproduce.calibration import DEFAULT, calibrate, not_calibrated, parse_key
+from suture_fem.studies.reproduce.compare import comparison, ours
 from suture_fem.studies.reproduce.figures import figures
 from suture_fem.studies.reproduce.paper import CONES, SCENE, TARGET
 from suture_fem.studies.reproduce.report import comparison_markdown
 from suture_fem.studies.reproduce.solve import solve_cone_counts, with_values
+from suture_fem.studies.reproduce.stress import stress_comparison
 from suture_fem.support.io import write_json, write_text
 from suture_fem.support.parallel import on_root
 
 log = logging.getLogger("suture_fem")
 
 
-def reproduce(scene: Scene, out: Path, comm: Any, calibrate_again: bool = False,
-              pictures: bool = True, scene_name: str = SCENE, cones: tuple[int, ...] = CONES) -> dict[str, Any]:
-    """Calibrate (only if asked), solve every cone count, compare, draw; returns comparison.json's content.
+def reproduce(scene: Scene, out: Path, comm: Any, calibrate_key: str = DEFAULT, pictures: bool = True,
+              scene_name: str = SCENE, cones: tuple[int, ...] = CONES, max_evaluations: int = 20) -> dict[str, Any]:
+    """Calibrate one key on one value, solve every cone count, compare, draw; returns comparison.json's content.
 
-    With ``cones`` only a subset of the cone counts is solved: the values of the others are then
-    missing from the comparison.
+    ``calibrate_key``: ``KEY[=LOW:HIGH]`` fitted to USUM 4.0 mm at 4 cones, 1 N (then the scene is also
+    solved as it is, for the uncalibrated column, under ``out/uncalibrated``), or ``none``. With
+    ``cones`` only a subset of the cone counts is solved: the values of the others are then missing.
     """
     t_start = time.perf_counter()
-    scene, cal = _calibration(scene, comm, out, calibrate_again)
-    solved = solve_cone_counts(scene, out, comm, fields=pictures, cones=cones)
+    key = parse_key(calibrate_key, scene)
+    cal = not_calibrated(scene) if key is None else calibrate(scene, comm, key, out / "calibration", max_evaluations)
+    uncalibrated, bands = None, {}
+    if cal["status"] == "calibrated":
+        uncalibrated = solve_cone_counts(scene, out / "uncalibrated", comm, fields=False, cones=cones)["results"]
+        scene = with_values(scene, {key.key: cal["value"]})
+    solved = solve_cone_counts(scene, out, comm, fields=pictures, cones=cones,
+                               on_state=_band_hook(cal, bands) if cal["status"] == "calibrated" else None)
     results = solved["results"]
-    usum_target = ours(results, TARGET.cones, TARGET.force_n, "usum_mm")[0]
-    cal = {**cal, "usum_mm_in_this_run": usum_target}
-    if cal["status"] == "from scene":
-        cal.update(usum_mm=usum_target, rel_error=rel(usum_target, TARGET.value))
-    cmp = comparison(results, cal, scene)
+    cal["usum_mm_in_this_run"] = ours(results, TARGET.cones, TARGET.force_n, "usum_mm")[0]
+    cmp = comparison(results, cal, scene, uncalibrated=uncalibrated, bands=bands)
+    cmp["stress"] = stress_comparison(results) if {2, 4} <= set(results) else None  # issue 17: converging measures
     if pictures:
         cmp["figures"] = [str(p.name) for p in on_root(comm, "drawing the figures", figures, solved, out) or []]
         cmp["figures"] = comm.bcast(cmp["figures"], root=0)
@@ -48,28 +54,31 @@ def reproduce(scene: Scene, out: Path, comm: Any, calibrate_again: bool = False,
     return cmp
 
 
-def _calibration(scene: Scene, comm: Any, out: Path, again: bool) -> tuple[Scene, dict[str, Any]]:
-    """The scene to solve and the calibration record: the scene's own value, or a new search (``again``).
+def _band_hook(cal: dict[str, Any], bands: dict[tuple[int, float], float]) -> Any:
+    """on_state(cones, force, outputs): USUM's linearised 95 % band at each reported state of the calibrated run.
 
-    A search that calibrates moves the scene's value (for this run only: the log says where to write
-    it to keep it); one that does not keeps the scene's value and records why.
+    The band is |dUSUM/dp| times the parameter's 95 % half-interval, with dUSUM/dp by the direct method
+    (one factorisation of the Jacobian per reported state). A geometric key's derivative is a
+    remeshed finite difference, not available inside one ramp: no band then (the record says so).
     """
-    value = scene.get(CALIBRATED.keys[0])
-    if not again:
-        return scene, {"status": "from scene", "dimension": CALIBRATED.name, "keys": list(CALIBRATED.keys),
-                       "value_mm": value, "why": CALIBRATED.why,
-                       "target": {"source": TARGET.source, "cones": TARGET.cones, "force_n": TARGET.force_n,
-                                  "usum_mm": TARGET.value}}
-    cal = calibrate(scene, comm)
-    on_root(comm, "writing calibration.json", write_json, out / "calibration.json", cal)
-    if cal["status"] == "calibrated":
-        scene = with_values(scene, {k: cal["value_mm"] for k in CALIBRATED.keys})
-        log.info("calibrated: %s = %.6g mm; to keep it, write it in suture_fem/scene/builtin/%s.toml",
-                 " = ".join(CALIBRATED.keys), cal["value_mm"], SCENE)
-    else:
-        log.warning("calibration %s: closest USUM %.4f mm at %.4g mm; the scene's %g mm is kept",
-                    cal["status"], cal["usum_mm"], cal["value_mm"], value)
-    return scene, cal
+    from suture_fem.studies.calibrate.keys import DIRECT
+    from suture_fem.studies.calibrate.sensitivity import Sensitivity
+
+    if cal["sensitivity"] != DIRECT:
+        cal["bands"] = "not propagated: the key is geometric (its sensitivity needs two remeshed solves per state)"
+        return None
+    cal["bands"] = "|dUSUM/dp| (direct method, at each reported state) times the parameter's 95 % half-interval"
+    half = (cal["ci95"][1] - cal["ci95"][0]) / 2
+    made: dict[int, Any] = {}
+
+    def on_state(cones: int, force_n: float, outputs: Any) -> None:
+        if cones not in made:
+            made.clear()
+            made[cones] = Sensitivity(outputs.physics)
+        _, d = made[cones].at_state("usum_mm", [cal["key"]])
+        bands[(cones, round(force_n, 6))] = abs(float(d[0])) * half
+
+    return on_state
 
 
 def _run_info(scene: Scene, scene_name: str, results: dict[int, Any], comm: Any, wall_time_s: float) -> dict[str, Any]:

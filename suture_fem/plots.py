@@ -352,3 +352,4 @@ def plot_trends(
     if title:
         fig.suptitle(title, fontsize=12)
     return _save(fig, png)
+

@@ -95,7 +95,8 @@ def _fit(d: np.ndarray, values: np.ndarray) -> np.ndarray:
         return np.column_stack([values.mean(axis=1), np.zeros((len(values), 2))])
     scale = np.maximum(np.abs(d).max(axis=(1, 2)), 1e-300)[:, None, None]
     a = np.concatenate([np.ones(d.shape[:2] + (1,)), d / scale], axis=2)
-    coef = np.linalg.solve(np.einsum("nqi,nqj->nij", a, a), np.einsum("nqi,nq->ni", a, values))
+    # right-hand sides as explicit columns: numpy 2 no longer reads a (n, 3) b as n vectors
+    coef = np.linalg.solve(np.einsum("nqi,nqj->nij", a, a), np.einsum("nqi,nq->ni", a, values)[..., None])[..., 0]
     return coef / np.concatenate([np.ones((len(d), 1)), scale[:, :, 0].repeat(2, axis=1)], axis=1)
 
 

@@ -12,8 +12,10 @@ from typing import Any
 
 from suture_fem.pipeline import load_scene
 from suture_fem.studies.reproduce import SCENE, reproduce
+from suture_fem.studies.reproduce.calibration import DEFAULT, parse_key
 from suture_fem.studies.reproduce.paper import LABELS
-from suture_fem.studies.reproduce.report import pct
+from suture_fem.studies.reproduce.report import calibration_heading, pct
+from suture_fem.support.errors import SceneError
 
 
 def register(subparsers: Any, scene_args: Any) -> None:
@@ -24,8 +26,11 @@ def register(subparsers: Any, scene_args: Any) -> None:
     p.add_argument("--scene", default=SCENE, help=f"base scene (default: the built-in {SCENE!r})")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a key of the base scene, e.g. --set mesh.degree=1 for a quick look (repeatable)")
-    p.add_argument("--calibrate", action="store_true",
-                   help="search the calibrated dimension again before solving (writes DIR/calibration.json)")
+    p.add_argument("--calibrate", default=DEFAULT, metavar="KEY[=LOW:HIGH]|none",
+                   help=f"the ONE parameter fitted to USUM 4.0 mm at 4 cones, 1 N before predicting every other "
+                        f"value (default {DEFAULT}; e.g. geometry.hypodermis_mm, loading.force_scale; 'none': the "
+                        "scene as it is, every value a prediction)")
+    p.add_argument("--max-evaluations", type=int, default=20, help="most calibration evaluations (default 20)")
     p.add_argument("--no-pictures", action="store_true", help="skip the field files and the figures")
     p.set_defaults(handler=reproduce_command)
 
@@ -33,12 +38,20 @@ def register(subparsers: Any, scene_args: Any) -> None:
 def reproduce_command(args: argparse.Namespace, comm: Any) -> int:
     """Run the study and print where the comparison is, the largest prediction error and any missed trend."""
     scene = load_scene(args.scene, args.overrides)
+    parse_key(args.calibrate, scene)  # a bad key or bounds: one line, exit 2, before any meshing
+    if args.max_evaluations < 1:
+        raise SceneError(f"--max-evaluations {args.max_evaluations}: expected an integer >= 1")
     out = Path(args.out)
-    cmp = reproduce(scene, out, comm, calibrate_again=args.calibrate, pictures=not args.no_pictures,
-                    scene_name=Path(args.scene).stem if str(args.scene).endswith(".toml") else args.scene)
+    cmp = reproduce(scene, out, comm, calibrate_key=args.calibrate, pictures=not args.no_pictures,
+                    scene_name=Path(args.scene).stem if str(args.scene).endswith(".toml") else args.scene,
+                    max_evaluations=args.max_evaluations)
     if comm.rank == 0:
         w = cmp["largest_prediction_error"]
         print(f"suture-fem: {out / 'comparison.md'} ({cmp['run']['wall_time_s']:.0f} s)")
+        print(f"  {calibration_heading(cmp['calibration']).replace('`', '')}")
+        u = cmp["largest_usum_prediction_error"]
+        if u:
+            print(f"  largest USUM prediction error {pct(u['rel_error'])}: {u['cones']} cones, {u['force_n']:g} N")
         if w:
             print(f"  largest prediction error {pct(w['rel_error'])}: {w['source']} {LABELS[w['quantity']]}, "
                   f"{w['cones']} cones, {w['force_n']:g} N")

@@ -1,7 +1,9 @@
 """`suture-fem reproduce` on a coarse mesh: the paper's trends, the comparison table, the pictures.
 
-One in-process run of the whole command (degree 1, coarsest mesh, the solver's default steps), shared
-by the tests of this module; the calibration search is tested on synthetic USUM curves (no solve).
+One in-process run of the whole command (degree 1, coarsest mesh, coarse steps; materials.tissue_scale
+calibrated on the 4-cone, 1 N USUM, then the scene solved uncalibrated and calibrated), shared by the
+tests of this module; the calibration's status and interval are also tested on a closed-form model (no
+solve).
 """
 
 from __future__ import annotations
@@ -129,7 +131,14 @@ def test_markdown_table_has_every_row_and_flags_the_typo(run):
     values = md[md.index("## Values"):md.index("USUM relative to the 4-cone")]
     table = [line for line in values.splitlines() if line.startswith("| Table") or line.startswith("| Section")]
     assert len(table) == len(cmp["rows"])
-    assert all(line.count("|") == 11 for line in table)
+    header = next(line for line in values.splitlines() if line.startswith("| source"))
+    # a calibrated run shows the uncalibrated and the calibrated value of every row, each with its error
+    assert "| uncalibrated | error | calibrated | error |" in header
+    assert all(line.count("|") == header.count("|") == 13 for line in table)
+    cal = cmp["calibration"]
+    heading = next(line for line in values.splitlines() if line.startswith("## Values"))
+    assert cal["key"] in heading and f"{cal['value']:.5g}" in heading and "95 % interval" in heading
+    assert "printed precision" in heading
     assert "| 23549 kPa |" in md and "not used: typo" in md
     assert "Wall time of the whole command" in md
 
@@ -168,35 +177,103 @@ def test_nice_levels_have_a_round_step_and_cover_the_range():
 
 
 def base_scene():
-    """The typed scene the calibration records the mesh of (the synthetic curves solve nothing)."""
+    """The typed scene the calibration records the mesh of (the closed-form models solve nothing)."""
     from suture_fem.pipeline import load_scene
 
     return load_scene(rp.SCENE)
 
 
-def test_calibration_search_finds_a_bracketed_target():
-    slope = 0.05  # mm of USUM per mm of the dimension, falling
-    calls = []
+class PowerLaw:
+    """A closed-form stand-in for the finite element model: USUM = u1 * s^-a at the one target point."""
 
-    def usum_of(v):
-        calls.append(v)
-        return 4.0 + slope * (12.0 - v) + 1e-3 * (12.0 - v) ** 2  # target reached at v = 12 mm
+    def __init__(self, key, u1=2.57, a=0.9):
+        from suture_fem.studies.calibrate.model import Cost
+        from suture_fem.studies.reproduce.calibration import target_point
 
-    cal = rp.calibrate(base_scene(), None, usum_of=usum_of)
-    assert cal["status"] == "calibrated"
-    assert abs(cal["usum_mm"] - 4.0) <= 2e-3 * 4.0
-    # near v = 12 the curve's slope is -slope, so the dimension is within the USUM tolerance / slope
-    assert cal["value_mm"] == pytest.approx(12.0, abs=2e-3 * 4.0 / slope * 1.5)
-    assert len(calls) == len(cal["evaluations"]) <= 12
-    assert calls[:2] == [rp.CALIBRATED.lo, rp.CALIBRATED.hi]
+        self.keys, self.points, self.u1, self.a = [key], [target_point()], u1, a
+        self.history, self.cost = [], Cost()
+
+    def predict(self, theta, jacobian=True):
+        s = float(theta[0])
+        self.history.append({"values": {self.keys[0].key: s}})
+        self.cost.evaluations += 1
+        return np.array([self.u1 * s ** -self.a]), np.array([[-self.a * self.u1 * s ** (-self.a - 1)]])
 
 
-def test_calibration_search_reports_an_unreachable_target_and_moves_nothing():
-    cal = rp.calibrate(base_scene(), None, usum_of=lambda v: 2.7 - 0.01 * v)
+def test_one_parameter_calibrated_on_the_target_with_the_printed_precision_as_interval():
+    """The protocol's calibration (calibrate's least squares) finds USUM = 4.0 mm and the interval of a value
+    printed to 0.1 mm: +-1.96 * 0.1 / sqrt(12) mm of USUM, through the sensitivity."""
+    from suture_fem.studies.reproduce.calibration import parse_key
+
+    scene = base_scene()
+    key = parse_key("materials.tissue_scale", scene)
+    model = PowerLaw(key)
+    cal = rp.calibrate(scene, None, key, model=model)
+    root = (2.57 / 4.0) ** (1 / 0.9)
+    assert cal["status"] == "calibrated" and cal["key"] == "materials.tissue_scale"
+    assert cal["value"] == pytest.approx(root, rel=1e-5)
+    assert abs(cal["usum_mm"] - 4.0) <= 0.05
+    slope = 0.9 * 2.57 * root ** -1.9
+    half = 1.959964 * 0.1 / np.sqrt(12) / slope
+    assert cal["ci95"] == pytest.approx([root - half, root + half], rel=1e-4)
+    assert "printed" in cal["uncertainty_from"]
+    assert len(model.history) == cal["cost"]["evaluations"] <= 20
+
+
+def test_a_target_out_of_the_bounds_is_unreachable_and_moves_nothing():
+    """Bounds that cannot reach 4.0 mm (a stiffer tissue only): the fit ends at a bound, the status says
+    "unreachable", the closest USUM and its error are recorded."""
+    from suture_fem.studies.reproduce.calibration import parse_key
+
+    scene = base_scene()
+    key = parse_key("materials.tissue_scale=1:2", scene)
+    cal = rp.calibrate(scene, None, key, model=PowerLaw(key))
     assert cal["status"] == "unreachable"
-    assert len(cal["evaluations"]) == 2
-    assert cal["value_mm"] == rp.CALIBRATED.lo and cal["usum_mm"] == pytest.approx(2.7 - 0.01 * rp.CALIBRATED.lo)
-    assert cal["rel_error"] == pytest.approx((cal["usum_mm"] - 4.0) / 4.0)
+    assert cal["value"] == pytest.approx(1.0) and cal["usum_mm"] == pytest.approx(2.57)
+    assert cal["rel_error"] == pytest.approx((2.57 - 4.0) / 4.0)
+
+
+def test_the_calibrated_run_predicts_from_the_calibrated_scene_and_keeps_the_uncalibrated_one(run):
+    """The scene solved is the calibrated one (USUM 4.0 mm at the target within half the printed 0.1 mm),
+    the uncalibrated column is the scene as it was (out/uncalibrated), USUM predictions carry a band."""
+    out, cmp, results = run
+    cal = cmp["calibration"]
+    assert cal["status"] == "calibrated" and cal["key"] == rp.DEFAULT
+    assert cal["ci95"][0] < cal["value"] < cal["ci95"][1]
+    for res in results.values():
+        assert res["scene"]["materials"]["tissue_scale"] == pytest.approx(cal["value"], rel=1e-12)
+    assert abs(at(results[4], 1.0)["usum_mm"] - 4.0) <= 0.05
+    before = {n: json.loads((out / "uncalibrated" / f"cones_{n}" / "results.json").read_text()) for n in rp.CONES}
+    for r in cmp["rows"]:
+        rec = at(before[r["cones"]], r["force_n"])
+        expected = rec["usum_mm"] if r["quantity"] == "usum_mm" else rec["regions"]["tissue"][r["quantity"]]
+        assert r["uncalibrated"] == expected
+        assert r["band95"] is None if r["quantity"] != "usum_mm" else 0 < r["band95"] < 0.1 * r["ours"]
+    # the calibrated (softer) tissue moves the thread more everywhere
+    assert all(r["ours"] > r["uncalibrated"] for r in cmp["rows"] if r["quantity"] == "usum_mm")
+
+
+def test_calibrate_none_makes_every_value_a_prediction(run):
+    """``--calibrate none``: nothing calibrated, the target row is a prediction like the others."""
+    from suture_fem.studies.reproduce.calibration import not_calibrated
+
+    _, _, results = run
+    cmp = rp.comparison(results, not_calibrated(base_scene()), base_scene())
+    roles = {(r["source"], r["cones"], r["force_n"], r["quantity"]): r["role"] for r in cmp["rows"]}
+    assert roles[("Table 1", 4, 1.0, "usum_mm")] == "predicted"
+    assert all(r["uncalibrated"] == r["ours"] for r in cmp["rows"])
+
+
+@pytest.mark.parametrize("value, words", [("materials.tissue_scal", "unknown scene key"),
+                                          ("materials.tissue_scale=2:1", "empty bounds"),
+                                          ("geometry.cones", "not a continuous number")])
+def test_a_bad_calibration_key_is_one_line_exit_2(tmp_path, capsys, value, words):
+    from suture_fem.cli import main
+
+    assert main(["reproduce", "--out", str(tmp_path / "out"), "--calibrate", value]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
+    assert len(errors) == 1 and words in errors[0], errors
+    assert not (tmp_path / "out").exists()
 
 
 GRID_SCRIPT = """

@@ -33,11 +33,27 @@ def markdown(rec: dict[str, Any]) -> str:
     lines += ["| data | force | measured | model | residual |", "| --- | --- | --- | --- | --- |"]
     for d, y, r in zip(rec["data"], rec["predictions_mm"], rec["residuals_mm"]):
         lines.append(f"| {d['label']} | {d['force_n']:g} N | {d['value_mm']:g} mm | {y:.4f} mm | {r:+.4f} mm |")
+    lines += _propagated(rec)
     c = rec["cost"]
     lines += ["", f"Cost: {c['evaluations']} evaluations, {c['ramps']} load ramps, {c['meshes']} meshes, "
                   f"{c['newton_iterations']} Newton iterations, {c['sensitivity_factorisations']} sensitivity "
                   f"factorisations, {c['cpu_time_s']:.0f} s CPU ({c['total_wall_time_s']:.0f} s wall).", ""]
     return "\n".join(lines)
+
+
+def _propagated(rec: dict[str, Any]) -> list[str]:
+    """The predictions at the fitted parameters with their linearised 95 % bands (the fitted curve, USUM)."""
+    if not rec.get("curve"):
+        return []
+    lines = ["", "Predictions at the fitted parameters, each with its linearised 95 % band (the parameters' "
+             "covariance through the sensitivities):", "", "| cones | force | quantity | model | 95 % band |",
+             "| --- | --- | --- | --- | --- |"]
+    for c in rec["curve"]:
+        name = "USUM" if c["quantity"] == "usum_mm" else "thread end displacement"
+        for f, y, h in zip(c["force_n"], c["model_mm"], c["band95_mm"]):
+            lines.append(f"| {c['cones'] if c['cones'] is not None else '-'} | {f:.4g} N | {name} | {y:.4f} mm | "
+                         f"+- {h:.4f} mm |")
+    return lines
 
 
 def picture(rec: dict[str, Any], path: Path) -> Path:
@@ -48,7 +64,8 @@ def picture(rec: dict[str, Any], path: Path) -> Path:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4.5))
-    for curve in rec.get("curve", []):
+    quantity = rec["data"][0]["quantity"]
+    for curve in (c for c in rec.get("curve", []) if c["quantity"] == quantity):
         f, y, h = (np.array(curve[k]) for k in ("force_n", "model_mm", "band95_mm"))
         label = f"model ({curve['cones']} cones)" if curve["cones"] is not None else "model"
         line, = ax.plot(f, y, label=label)
@@ -57,7 +74,6 @@ def picture(rec: dict[str, Any], path: Path) -> Path:
     for d in rec["data"]:
         err = d["sd_mm"] if d["sd_mm"] is not None else (sigma if sigma is not None else d["resolution_mm"] / 2)
         ax.errorbar(d["force_n"], d["value_mm"], yerr=err, fmt="o", color="k", capsize=3)
-    quantity = rec["data"][0]["quantity"]
     ax.set_xlabel("force (N)")
     ax.set_ylabel("USUM (mm)" if quantity == "usum_mm" else "thread end displacement (mm)")
     ax.set_title("data (error bars) and the fitted model with its 95 % band", fontsize=9)

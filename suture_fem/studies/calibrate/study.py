@@ -11,7 +11,7 @@ import numpy as np
 from scipy import stats
 
 from suture_fem.scene import Scene
-from suture_fem.studies.calibrate.data import Point
+from suture_fem.studies.calibrate.data import USUM, Point
 from suture_fem.studies.calibrate.fit import fit
 from suture_fem.studies.calibrate.keys import FitKey
 from suture_fem.studies.calibrate.model import Model
@@ -33,11 +33,15 @@ def check_scene(scene: Scene) -> None:
 
 
 def calibrate(scene: Scene, points: list[Point], keys: list[FitKey], comm: Any, out: Path | None = None,
-              max_evaluations: int = 30, curve: bool = True) -> dict[str, Any]:
-    """Fit ``keys`` to ``points``; returns (and writes under ``out``) the calibration record."""
+              max_evaluations: int = 30, curve: bool = True, model: Any = None) -> dict[str, Any]:
+    """Fit ``keys`` to ``points``; returns (and writes under ``out``) the calibration record.
+
+    ``model`` replaces the finite element :class:`Model` (anything with its ``keys``, ``points``,
+    ``predict``, ``history`` and ``cost``: a test's closed-form model).
+    """
     check_scene(scene)
     t0 = time.perf_counter()
-    model = Model(scene, points, keys, comm)
+    model = model if model is not None else Model(scene, points, keys, comm)
     record = fit(model, max_evaluations)
     record["data"] = [p.__dict__ for p in points]
     record["evaluations"] = model.history
@@ -55,7 +59,12 @@ def calibrate(scene: Scene, points: list[Point], keys: list[FitKey], comm: Any, 
 
 
 def fitted_curve(model: Model, record: dict[str, Any]) -> list[dict[str, Any]]:
-    """The fitted model over each group's forces, with its linearised 95 % band (one ramp per group)."""
+    """The fitted model over each group's forces, with its linearised 95 % band (one ramp per group and quantity).
+
+    The data's own quantity (the curve the data are compared with) and, when that is the thread end's
+    displacement, USUM too: both propagated from the parameters' covariance through the sensitivities
+    at the fitted values, half-width = q sqrt(g^T Cov g) with g = dy/dtheta and q the normal 97.5 % quantile.
+    """
     theta = np.array([record["parameters"][k.key]["value"] for k in model.keys])
     cov = np.array(record["covariance"])
     quantile = stats.norm.ppf(0.975)
@@ -63,10 +72,12 @@ def fitted_curve(model: Model, record: dict[str, Any]) -> list[dict[str, Any]]:
     for cones, idx in model.groups().items():
         f_max = max(model.points[i].force_n for i in idx)
         forces = sorted({round(f_max * a, 9) for a in CURVE_FRACTIONS} | {model.points[i].force_n for i in idx})
-        sub = Model(model.scene, [Point(f, 0.0, None, 1.0, model.points[idx[0]].quantity, cones) for f in forces],
-                    model.keys, model.comm, cost=model.cost, _cases=model._cases)
-        y, J = sub.predict(theta)
-        half = quantile * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, cov, J), 0.0))
-        out.append({"cones": cones, "quantity": model.points[idx[0]].quantity, "force_n": forces,
-                    "model_mm": y.tolist(), "band95_mm": half.tolist()})
+        quantities = dict.fromkeys([model.points[idx[0]].quantity, USUM])
+        for quantity in quantities:
+            sub = Model(model.scene, [Point(f, 0.0, None, 1.0, quantity, cones) for f in forces], model.keys,
+                        model.comm, cost=model.cost, _cases=model._cases)
+            y, J = sub.predict(theta)
+            half = quantile * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, cov, J), 0.0))
+            out.append({"cones": cones, "quantity": quantity, "force_n": forces,
+                        "model_mm": y.tolist(), "band95_mm": half.tolist()})
     return out

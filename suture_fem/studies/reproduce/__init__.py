@@ -5,11 +5,12 @@ The honest protocol (docs/reproduction.md):
 1. Every dimension the paper leaves open is fixed first from public data (``suture_fem/scene/defaults.toml``
    names each source: cone spacing 6.25 mm from the product's entry-to-exit lengths, thread radius
    0.125 mm from USP 3-0).
-2. At most one remaining dimension is calibrated against one value, USUM = 4.0 mm for 4 cones at
-   1 N (:data:`CALIBRATED`, :func:`calibrate`; ``--calibrate`` runs the search again). The result
-   of the search is written in the built-in scene :data:`SCENE` with its provenance, and the
-   command uses that scene as it is; it does not calibrate on every run.
-3. Every other value of the paper is a prediction, reported with its relative error.
+2. ONE parameter is calibrated against ONE value, USUM = 4.0 mm for 4 cones at 1 N (:func:`calibrate`:
+   ``suture-fem calibrate``'s least squares; default :data:`DEFAULT`, ``materials.tissue_scale``;
+   ``--calibrate KEY`` another, ``--calibrate none`` nothing), with its 95 % interval from the
+   paper's printed precision.
+3. Every other value of the paper is a prediction, reported with its relative error, next to the
+   uncalibrated scene's value.
 
 One load ramp per cone count (1, 2, 3, 4 cones to 4 N, reported at 1, 2, 3, 4 N). The command
 writes, under DIR (default ``results/reproduce``):
@@ -30,15 +31,15 @@ axial stress of the thread (about 20 MPa per newton), so SEQV is compared with t
 is reported next to it, and likewise for EPTOEQV.
 
 The modules, in the order the study runs: ``paper`` (the paper's values and the cases), ``calibration``
-(the one open dimension and its search), ``solve`` (one ramp per cone count), ``compare`` (ours against
+(one parameter fitted to one value), ``solve`` (one ramp per cone count), ``compare`` (ours against
 the paper, the trends), ``report`` (comparison.md), ``figures`` (the pictures), ``study`` (the entry,
 :func:`reproduce`). The names below are the study's public face.
 """
 
-from suture_fem.studies.reproduce.calibration import CALIBRATED, Dimension, calibrate
+from suture_fem.studies.reproduce.calibration import CANDIDATES, DEFAULT, calibrate
 from suture_fem.studies.reproduce.compare import comparison, ours, trends
 from suture_fem.studies.reproduce.paper import CONES, FORCES_N, PAPER, SCENE, TARGET, PaperValue
 from suture_fem.studies.reproduce.study import reproduce
 
-__all__ = ["CALIBRATED", "CONES", "FORCES_N", "PAPER", "SCENE", "TARGET", "Dimension", "PaperValue", "calibrate",
+__all__ = ["CANDIDATES", "CONES", "DEFAULT", "FORCES_N", "PAPER", "SCENE", "TARGET", "PaperValue", "calibrate",
            "comparison", "ours", "reproduce", "trends"]

@@ -43,23 +43,35 @@ def rel(ours_value: Any, paper: float) -> Any:
     return None if ours_value is None else (ours_value - paper) / paper
 
 
-def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], scene: Scene) -> dict[str, Any]:
-    """Every paper value side by side with ours, the trends, and the largest prediction error."""
+def _role(p: Any, status: str | None) -> str:
+    if p.typo:
+        return "not used: typo"
+    if p is TARGET and status != "not calibrated":
+        return "calibrated" if status == "calibrated" else "calibration target (not reached)"
+    return "predicted"
+
+
+def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], scene: Scene,
+               uncalibrated: dict[int, dict[str, Any]] | None = None,
+               bands: dict[tuple[int, float], float] | None = None) -> dict[str, Any]:
+    """Every paper value side by side with ours, the trends, and the largest prediction error.
+
+    ``results`` are the solved (calibrated, when a calibration reached its target) cone counts;
+    ``uncalibrated`` the scene as it was, when it differs (then each row also has ``uncalibrated``
+    and its error); ``bands`` the 95 % half-widths of the calibrated USUM by (cones, force).
+    """
     rows = []
     for p in PAPER:
         value, alt = ours(results, p.cones, p.force_n, p.quantity)
-        if p.typo:
-            role = "not used: typo"
-        elif p is TARGET:
-            role = "calibrated" if calibration.get("status") == "calibrated" else "calibration target (not reached)"
-        else:
-            role = "predicted"
+        before = ours(uncalibrated, p.cones, p.force_n, p.quantity)[0] if uncalibrated is not None else value
+        band = (bands or {}).get((p.cones, round(p.force_n, 6))) if p.quantity == "usum_mm" else None
         rows.append({
             "source": p.source, "cones": p.cones, "force_n": p.force_n, "quantity": p.quantity,
             "paper": p.value, "paper_printed": p.printed, "ours": value,
-            "rel_error": None if p.typo else rel(value, p.value),
+            "rel_error": None if p.typo else rel(value, p.value), "band95": band,
+            "uncalibrated": before, "uncalibrated_rel_error": None if p.typo else rel(before, p.value),
             "ours_outside_rims": alt, "rel_error_outside_rims": None if p.typo else rel(alt, p.value),
-            "role": role, "note": p.typo,
+            "role": _role(p, calibration.get("status")), "note": p.typo,
         })
     usum_ref = ours(results, TARGET.cones, TARGET.force_n, "usum_mm")[0]
     shape = []
@@ -72,9 +84,11 @@ def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], 
     worst = max(predicted, key=lambda r: abs(r["rel_error"]), default=None)
     worst_alt = max((r for r in predicted if r["rel_error_outside_rims"] is not None),
                     key=lambda r: abs(r["rel_error_outside_rims"]), default=None)
+    usum_predicted = [r for r in predicted if r["quantity"] == "usum_mm"]
     return {
         "rows": rows,
         "largest_prediction_error": worst,
+        "largest_usum_prediction_error": max(usum_predicted, key=lambda r: abs(r["rel_error"]), default=None),
         "largest_prediction_error_outside_rims": worst_alt,
         "usum_relative_to_target": shape,
         "trends": trends(results),

@@ -44,23 +44,41 @@ def comparison_markdown(cmp: dict[str, Any], info: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def calibration_heading(cal: dict[str, Any]) -> str:
+    """The calibrated parameter with its 95 % interval, for the table's heading (or why nothing is)."""
+    if cal.get("status") == "calibrated":
+        return (f"calibrated: `{cal['key']}` = {cal['value']:.5g}, 95 % interval [{cal['ci95'][0]:.5g}, "
+                f"{cal['ci95'][1]:.5g}] (on USUM {cal['target']['printed']}, {cal['target']['cones']} cones, "
+                f"{cal['target']['force_n']:g} N; the interval from the paper's printed precision)")
+    if cal.get("status") == "not calibrated":
+        return "nothing calibrated (--calibrate none): every value is a prediction"
+    return f"`{cal['key']}` could not reach the target: nothing calibrated, every value is a prediction"
+
+
 def _values_section(cmp: dict[str, Any]) -> list[str]:
     """Every paper value with ours, the errors and the role; what is not used; the largest prediction error."""
+    two = cmp["calibration"].get("status") == "calibrated"  # the uncalibrated and the calibrated columns
+    head = ("| source | cones | force | quantity | paper | uncalibrated | error | calibrated | error | "
+            "calibrated, outside rims | error | role |") if two else (
+            "| source | cones | force | quantity | paper | ours | error | ours, outside rims | error | role |")
     lines = [
-        "## Values",
+        f"## Values: {calibration_heading(cmp['calibration'])}",
         "",
-        "Error = (ours - paper) / paper. \"ours\" is the measure the paper reports (USUM: maximum over the "
-        "model; SEQV and EPTOEQV: maximum over the tissue, which includes the peak at the sharp cone rims); "
-        "\"outside rims\" is " + cmp["measures"]["outside_rims"] + ".",
+        "Error = (model - paper) / paper. The model's value is the measure the paper reports (USUM: maximum over "
+        "the model; SEQV and EPTOEQV: maximum over the tissue, which includes the peak at the sharp cone rims); "
+        "\"outside rims\" is " + cmp["measures"]["outside_rims"] + "."
+        + (" A calibrated USUM carries its linearised 95 % band (+-) where one was propagated." if two else ""),
         "",
-        "| source | cones | force | quantity | paper | ours | error | ours, outside rims | error | role |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        head,
+        "|" + " --- |" * (head.count("|") - 1),
     ]
     for r in cmp["rows"]:
         q = r["quantity"]
+        cal = fmt(q, r["ours"]) + (f" +- {r['band95']:.3f}" if r.get("band95") is not None else "")
+        first = f"{fmt(q, r['uncalibrated'])} | {pct(r['uncalibrated_rel_error'])} | " if two else ""
         lines.append(
             f"| {r['source']} | {r['cones']} | {r['force_n']:g} N | {LABELS[q].split(' ')[0]} | {r['paper_printed']} "
-            f"| {fmt(q, r['ours'])} | {pct(r['rel_error'])} | {fmt(q, r['ours_outside_rims'])} | "
+            f"| {first}{cal} | {pct(r['rel_error'])} | {fmt(q, r['ours_outside_rims'])} | "
             f"{pct(r['rel_error_outside_rims'])} | {r['role']} |"
         )
     not_used = [f"{r['source']}, {r['cones']} cones, {r['force_n']:g} N, SEQV {r['paper_printed']} ({r['note']})"
@@ -105,17 +123,21 @@ def _yes(v: Any) -> str:
 
 
 def _calibration_text(cal: dict[str, Any]) -> str:
-    keys = " = ".join(cal["keys"])
-    if cal.get("status") == "from scene":
-        return (f"Not searched in this run: {keys} = {cal['value_mm']:g} mm is read from the scene "
-                f"(see its comments and docs/reproduction.md). USUM at the target case: {cal['usum_mm']:.4g} mm "
-                f"against the paper's {cal['target']['usum_mm']:g} mm ({pct(cal['rel_error'])}).")
-    evals = ", ".join(f"{e['value_mm']:.4g} mm -> {e['usum_mm']:.4f} mm" for e in cal["evaluations"])
+    if cal.get("status") == "not calibrated":
+        return ("Nothing calibrated (`--calibrate none`): the scene's values as they are, every paper value a "
+                "prediction.")
+    head = (f"`{cal['key']}` fitted to USUM {cal['target']['printed']} at {cal['target']['cones']} cones, "
+            f"{cal['target']['force_n']:g} N (bounded least squares of `suture-fem calibrate`, sensitivity: "
+            f"{cal['sensitivity']}; bounds [{cal['bounds'][0]:g}, {cal['bounds'][1]:g}], start {cal['start']:g}).")
     if cal["status"] == "calibrated":
-        head = f"Calibrated: {keys} = {cal['value_mm']:.4g} mm gives USUM {cal['usum_mm']:.4f} mm (target 4.0 mm)."
+        head += (f" Calibrated: {cal['value']:.6g}, 95 % interval [{cal['ci95'][0]:.6g}, {cal['ci95'][1]:.6g}], "
+                 f"USUM {cal['usum_mm']:.4f} mm in the fit ({cal['usum_mm_in_this_run']:.4f} mm in this run). "
+                 f"One value determines one parameter exactly, so the interval is {cal['uncertainty_from']}. "
+                 f"Predicted USUM bands: {cal.get('bands', '-')}.")
     else:
-        head = (f"No value of {cal['dimension']} ({keys}) in {cal['range_mm'][0]:g}-{cal['range_mm'][1]:g} mm reaches "
-                f"USUM = 4.0 mm at 4 cones, 1 N ({cal['status']}); the closest is {cal['usum_mm']:.4f} mm at "
-                f"{cal['value_mm']:.4g} mm ({pct(cal['rel_error'])}). Nothing was moved: every value is a prediction.")
-    return f"{head} Search: {evals}. {cal['why']}"
-
+        head += (f" Unreachable: the fit ends at {cal['value']:.6g} (a bound) with USUM {cal['usum_mm']:.4f} mm "
+                 f"({pct(cal['rel_error'])}); nothing was moved, every value is a prediction.")
+    c = cal["cost"]
+    return (head + f" Cost of the calibration: {c['evaluations']} evaluations, {c['ramps']} load ramps, "
+            f"{c['newton_iterations']} Newton iterations, {c['cpu_time_s']:.0f} s CPU "
+            f"({c['total_wall_time_s']:.0f} s wall); `calibration/calibration.json`.")

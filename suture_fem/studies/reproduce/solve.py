@@ -29,7 +29,7 @@ def with_values(scene: Scene, values: dict[str, Any]) -> Scene:
 
 
 def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True,
-                      cones: tuple[int, ...] = CONES) -> dict[str, Any]:
+                      cones: tuple[int, ...] = CONES, on_state: Any = None) -> dict[str, Any]:
     """One load ramp per cone count of ``cones``; returns {"results": {n: results}, "grids": {(n, F): grid}, ...}.
 
     Grids (rank 0 only) are the solved states at every reported force, also written to
@@ -46,6 +46,8 @@ def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True,
         folder = out / f"cones_{n}"
 
         def on_report(force_n: float, outputs: Any, n: int = n) -> None:
+            if on_state is not None:  # on_state(cones, force, outputs): e.g. the calibrated USUM's band
+                on_state(n, force_n, outputs)
             if not fields:
                 return
             grid = plots.field_grid(outputs)

@@ -108,11 +108,13 @@ def test_fitted_curve_and_usum_carry_their_linearised_band(scene, case, truth, t
     usum, s = curves[USUM], p["value"]
     i = usum["force_n"].index(FORCES[-1])
     values = {"loading.force_scale": 1.0}
+    # a 1 % step: each solve is exact to about 1e-6 relative (Newton's tolerances, a different ramp), so a
+    # smaller step would difference solver noise; the step's own error is O(1e-4)
     mid, plus, minus = (case.solve({**values, "materials.tissue_scale": v}, [FORCES[-1]], USUM, [])[0][0]
-                        for v in (s, s * (1 + 1e-4), s * (1 - 1e-4)))
-    assert usum["model_mm"][i] == pytest.approx(mid, rel=1e-9)
-    slope = (plus - minus) / (2e-4 * s)
-    assert usum["band95_mm"][i] == pytest.approx(1.959964 * p["sd"] * abs(slope), rel=1e-3)
+                        for v in (s, s * (1 + 1e-2), s * (1 - 1e-2)))
+    assert usum["model_mm"][i] == pytest.approx(mid, rel=1e-5)  # the same state reached by another ramp
+    slope = (plus - minus) / (2e-2 * s)
+    assert usum["band95_mm"][i] == pytest.approx(1.959964 * p["sd"] * abs(slope), rel=2e-3)
     assert all(h > 0 for c in rec["curve"] for h in c["band95_mm"])
     md = (tmp_path / "out" / "calibration.md").read_text()
     assert "| 1 | 0.5 N | USUM |" not in md and "| - | 0.5 N | USUM |" in md and "95 % band" in md

@@ -23,11 +23,31 @@ def run(tmp_path_factory):
     from suture_fem.cli import main
 
     out = tmp_path_factory.mktemp("reproduce")
-    args = ["reproduce", "--out", str(out)]
+    args = ["reproduce", "--out", str(out), "--calibrate", "none"]
     for o in COARSE:
         args += ["--set", o]
     assert main(args) == 0
     cmp = json.loads((out / "comparison.json").read_text())
+    results = {n: json.loads((out / f"cones_{n}" / "results.json").read_text()) for n in rp.CONES}
+    return out, cmp, results
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    """The default command: materials.tissue_scale calibrated, the scene solved uncalibrated and calibrated.
+
+    Exit 3: at the calibrated scale (about 0.31) the 1- and 2-cone ramps stop at the epidermis's Gent
+    limit before 4 N (1 cone at about 2.1 N); every paper value (1 and 2 cones at 1 N only) is still solved.
+    """
+    from suture_fem.cli import main
+
+    out = tmp_path_factory.mktemp("calibrated")
+    args = ["reproduce", "--out", str(out), "--no-pictures"]
+    for o in COARSE:
+        args += ["--set", o]
+    code = main(args)
+    cmp = json.loads((out / "comparison.json").read_text())
+    assert code == (3 if cmp["stopped"] else 0)
     results = {n: json.loads((out / f"cones_{n}" / "results.json").read_text()) for n in rp.CONES}
     return out, cmp, results
 
@@ -78,8 +98,8 @@ def test_comparison_lists_every_paper_value_once_with_its_role(run):
     typo = ("Table 1", 4, 1.0, "seqv_pa")
     target = ("Table 1", 4, 1.0, "usum_mm")
     assert roles[typo] == "not used: typo"
-    assert roles[target] in ("calibrated", "calibration target (not reached)")
-    assert {v for k, v in roles.items() if k not in (typo, target)} == {"predicted"}
+    assert roles[target] == "predicted"  # --calibrate none: nothing calibrated (a calibrated run: "calibrated")
+    assert {v for k, v in roles.items() if k != typo} == {"predicted"}
     typo_row = rows[keys.index(typo)]
     assert typo_row["paper"] == pytest.approx(23549e3) and typo_row["note"]
     assert typo_row["rel_error"] is None and typo_row["rel_error_outside_rims"] is None
@@ -131,14 +151,7 @@ def test_markdown_table_has_every_row_and_flags_the_typo(run):
     values = md[md.index("## Values"):md.index("USUM relative to the 4-cone")]
     table = [line for line in values.splitlines() if line.startswith("| Table") or line.startswith("| Section")]
     assert len(table) == len(cmp["rows"])
-    header = next(line for line in values.splitlines() if line.startswith("| source"))
-    # a calibrated run shows the uncalibrated and the calibrated value of every row, each with its error
-    assert "| uncalibrated | error | calibrated | error |" in header
-    assert all(line.count("|") == header.count("|") == 13 for line in table)
-    cal = cmp["calibration"]
-    heading = next(line for line in values.splitlines() if line.startswith("## Values"))
-    assert cal["key"] in heading and f"{cal['value']:.5g}" in heading and "95 % interval" in heading
-    assert "printed precision" in heading
+    assert all(line.count("|") == 11 for line in table)
     assert "| 23549 kPa |" in md and "not used: typo" in md
     assert "Wall time of the whole command" in md
 
@@ -233,10 +246,23 @@ def test_a_target_out_of_the_bounds_is_unreachable_and_moves_nothing():
     assert cal["rel_error"] == pytest.approx((2.57 - 4.0) / 4.0)
 
 
-def test_the_calibrated_run_predicts_from_the_calibrated_scene_and_keeps_the_uncalibrated_one(run):
+@pytest.mark.slow  # about 130 s CPU: the calibration and two solves of every cone count
+def test_the_calibrated_run_predicts_from_the_calibrated_scene_and_keeps_the_uncalibrated_one(calibrated):
     """The scene solved is the calibrated one (USUM 4.0 mm at the target within half the printed 0.1 mm),
-    the uncalibrated column is the scene as it was (out/uncalibrated), USUM predictions carry a band."""
-    out, cmp, results = run
+    the uncalibrated column is the scene as it was (out/uncalibrated), USUM predictions carry a band;
+    the table shows both columns and the parameter with its interval in its heading."""
+    out, cmp, results = calibrated
+    for n, why in cmp["stopped"].items():
+        assert int(n) in (1, 2) and "Gent limit" in why and "epidermis" in why, (n, why)
+    md = (out / "comparison.md").read_text()
+    values = md[md.index("## Values"):md.index("USUM relative to the 4-cone")]
+    header = next(line for line in values.splitlines() if line.startswith("| source"))
+    assert "| uncalibrated | error | calibrated | error |" in header
+    table = [line for line in values.splitlines() if line.startswith("| Table") or line.startswith("| Section")]
+    assert len(table) == len(cmp["rows"]) and all(line.count("|") == header.count("|") == 13 for line in table)
+    heading = next(line for line in values.splitlines() if line.startswith("## Values"))
+    cal = cmp["calibration"]
+    assert cal["key"] in heading and f"{cal['value']:.5g}" in heading and "printed precision" in heading
     cal = cmp["calibration"]
     assert cal["status"] == "calibrated" and cal["key"] == rp.DEFAULT
     assert cal["ci95"][0] < cal["value"] < cal["ci95"][1]
@@ -251,6 +277,7 @@ def test_the_calibrated_run_predicts_from_the_calibrated_scene_and_keeps_the_unc
         assert r["band95"] is None if r["quantity"] != "usum_mm" else 0 < r["band95"] < 0.1 * r["ours"]
     # the calibrated (softer) tissue moves the thread more everywhere
     assert all(r["ours"] > r["uncalibrated"] for r in cmp["rows"] if r["quantity"] == "usum_mm")
+    assert all(r["ours"] is not None for r in cmp["rows"])  # every paper value solved despite the stops
 
 
 def test_calibrate_none_makes_every_value_a_prediction(run):

@@ -132,9 +132,11 @@ def test_the_mesh_estimate_is_close_to_gmsh_and_scales_with_refinement():
     scene = parse_scene("paper")
     geometry = Geometry.from_section(scene.geometry)
     coarse = check_fits(geometry, scene.mesh)
-    # gmsh meshes the paper scene with 14,484 triangles at refinement 0 (12,665 with sharp rims, before
-    # the default geometry.cone_fillet_mm = 0.04 and its fillet refinement; docs/reliability.md)
-    assert 0.8 * 14484 < coarse.cells < 1.2 * 14484
+    # gmsh meshes the paper scene with 12,665 triangles at refinement 0 (sharp rims, the default) and
+    # with 14,484 with the recommended geometry.cone_fillet_mm = 0.04 and its fillet refinement
+    assert 0.8 * 12665 < coarse.cells < 1.2 * 12665
+    rounded = parse_scene("paper", ["geometry.cone_fillet_mm=0.04"])
+    assert 0.8 * 14484 < check_fits(Geometry.from_section(rounded.geometry), rounded.mesh).cells < 1.2 * 14484
     fine = check_fits(geometry, parse_scene("paper", ["mesh.refinement=1"]).mesh)
     assert 3.0 < fine.cells / coarse.cells < 4.5  # halving every size: about four times the cells
     with pytest.raises(SceneError, match="needing about"):

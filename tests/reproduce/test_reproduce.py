@@ -246,7 +246,7 @@ def test_a_target_out_of_the_bounds_is_unreachable_and_moves_nothing():
     assert cal["rel_error"] == pytest.approx((2.57 - 4.0) / 4.0)
 
 
-@pytest.mark.slow  # about 130 s CPU: the calibration and two solves of every cone count
+@pytest.mark.long  # about 130 s CPU: the calibration and two solves of every cone count
 def test_the_calibrated_run_predicts_from_the_calibrated_scene_and_keeps_the_uncalibrated_one(calibrated):
     """The scene solved is the calibrated one (USUM 4.0 mm at the target within half the printed 0.1 mm),
     the uncalibrated column is the scene as it was (out/uncalibrated), USUM predictions carry a band;

@@ -16,8 +16,10 @@ from suture_fem.studies.reproduce.paper import CONES, FORCES_N, PAPER, TARGET
 
 
 def _record(results: dict[str, Any] | None, force_n: float) -> dict[str, Any] | None:
-    """The record at the nominal force ``force_n`` (results.json's force_n is the applied one: times
-    ``loading.force_scale``)."""
+    """The record at the nominal force ``force_n``.
+
+    results.json's force_n is the applied force: the nominal one times ``loading.force_scale``.
+    """
     scale = float(((results or {}).get("scene") or {}).get("loading", {}).get("force_scale", 1.0))
     for rec in (results or {}).get("at_forces", []):
         if abs(rec["force_n"] - force_n * scale) <= 1e-6 * force_n * scale:

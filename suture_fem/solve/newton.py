@@ -171,7 +171,8 @@ class NewtonSolver:
         self.snes.setFromOptions()
         return self.line_search
 
-    def _residual(self, snes: Any, x: Any, b: Any) -> None:
+    def _trial_admissible(self, x: Any) -> bool:
+        """Expand the trial x into the state and check it against the domain guard (counted when outside)."""
         self.reduction.expand(x)
         t0 = time.perf_counter()
         ok = self.guard.admissible()
@@ -179,6 +180,10 @@ class NewtonSolver:
         if not ok:
             self.outside_domain += 1
             self.last_violation = self.guard.violation
+        return ok
+
+    def _residual(self, snes: Any, x: Any, b: Any) -> None:
+        if not self._trial_admissible(x):
             if not compat.set_function_domain_error(snes):
                 b.set(OUTSIDE_DOMAIN_RESIDUAL)
             return
@@ -191,13 +196,7 @@ class NewtonSolver:
         self.timings.assembly += time.perf_counter() - t0
 
     def _objective(self, snes: Any, x: Any) -> float:
-        self.reduction.expand(x)
-        t0 = time.perf_counter()
-        ok = self.guard.admissible()
-        self.timings.guard += time.perf_counter() - t0
-        if not ok:
-            self.outside_domain += 1
-            self.last_violation = self.guard.violation
+        if not self._trial_admissible(x):
             return OUTSIDE_DOMAIN_RESIDUAL
         t0 = time.perf_counter()
         value = dolfinx.fem.assemble_scalar(self.objective_form)

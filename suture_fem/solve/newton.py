@@ -66,9 +66,11 @@ OUTSIDE_DOMAIN_RESIDUAL = 1e30
 #: changed by 8e-13 (benchmarks/speed.py).
 INCREMENT_RTOL = 1e-7
 #: A solve stopped by the increment test whose residual is above this fraction of the applied force (N)
-#: continues with the residual tests only, so the reaction still balances the pull to 1e-7 (a short
-#: damped step of the line search, not convergence, can also make the increment small).
-INCREMENT_STOP_RESIDUAL = 1e-7
+#: continues with the residual tests only, so the reaction still balances the pull to 1e-9 of the force
+#: (a short damped step of the line search, not convergence, can also make the increment small). At
+#: 1e-7 a 1-cone P1 run at 2 N ended at a free residual of 1.3e-7 N on Debian 13, above the 1e-8 of the
+#: force the integration tests hold every run to.
+INCREMENT_STOP_RESIDUAL = 1e-9
 #: Direct solvers in the order they are tried ("petsc", serial only, last).
 FALLBACK_ORDER = ("mumps", "superlu_dist", "petsc")
 #: The reason :meth:`NewtonSolver.solve` returns when PETSc raised an error (a failed factorisation
@@ -273,8 +275,8 @@ class NewtonSolver:
         if self.snes.getConvergedReason() != PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE:
             return False
         force = getattr(self.physics, "applied_force_n", None)
-        scale = max(abs(force()), 1.0) if callable(force) else 1.0
-        return self.snes.getFunctionNorm() > INCREMENT_STOP_RESIDUAL * scale
+        scale = abs(force()) if callable(force) else 0.0
+        return self.snes.getFunctionNorm() > INCREMENT_STOP_RESIDUAL * (scale if scale > 0 else 1.0)
 
     def linear_failure(self) -> bool:
         """True when the last linear solve failed (e.g. a factorisation that ran out of memory)."""

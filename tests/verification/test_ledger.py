@@ -77,8 +77,11 @@ def test_convergence_command_writes_the_ledger(tmp_path):
     assert dofs == sorted(dofs) and len(set(dofs)) == 3
     per_q = ledger["analysis"]["1"]
     assert set(per_q) == {q.path for q in QUANTITIES}
-    for p in per_q.values():
+    for path, p in per_q.items():
         est = p["estimates"]["P1"]
+        if "_fillet" in path:  # the peak on a resolved fillet: absent with the default sharp rims
+            assert est["refinements"] == [] and not est["values"], (path, est)
+            continue
         assert est["refinements"] == [0, 1, 2] and len(est["values"]) == 3
         if est["verdict"] == "converging":
             assert math.isfinite(est["limit"]) and est["order"] > 0

@@ -99,6 +99,7 @@ def main(argv: list[str] | None = None) -> int:
         comm.Abort(1)
         raise
     finally:
+        Interrupted.pending = None  # handled (or never raised): later solves in this process start clean
         for signum, handler in previous.items():
             signal.signal(signum, handler)
         if previous and "gmsh" in sys.modules:

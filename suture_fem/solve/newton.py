@@ -53,6 +53,7 @@ from suture_fem.solve.guard import DomainGuard, Violation
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
 from suture_fem.support import compat
+from suture_fem.support.errors import Interrupted
 
 log = logging.getLogger("suture_fem")
 
@@ -258,6 +259,8 @@ class NewtonSolver:
                     self.snes.setTolerances(stol=self.stol)
                 its += self.snes.getIterationNumber()
         except PETSc.Error as exc:  # a factorisation error raised instead of reported
+            if Interrupted.pending is not None:  # a signal inside a PETSc callback: not a solver failure
+                raise Interrupted.pending from None
             log.warning("PETSc error during the Newton solve: %s", exc)
             return False, self.snes.getIterationNumber(), PETSC_ERROR
         finally:

@@ -71,6 +71,10 @@ class Interrupted(KeyboardInterrupt):
     ``exit_code`` is 128 + the signal's number (130 for SIGINT, 143 for SIGTERM), as a shell reports it.
     """
 
+    #: The signal raised in this process and not yet handled: a signal that arrives inside a PETSc
+    #: callback (petsc4py 3.22) reaches Python as a PETSc error, and the solver re-raises it from here.
+    pending: Interrupted | None = None
+
     def __init__(self, signum: int):
         """Record the signal (its number and name)."""
         import signal
@@ -78,3 +82,4 @@ class Interrupted(KeyboardInterrupt):
         self.signum, self.exit_code = signum, 128 + signum
         self.name = signal.Signals(signum).name
         super().__init__(self.name)
+        Interrupted.pending = self

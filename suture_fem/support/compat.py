@@ -16,6 +16,8 @@ import dolfinx.fem.petsc
 import dolfinx.io
 import numpy as np
 
+from suture_fem.support.logging import announce_if_nothing_cached
+
 try:  # dolfinx 0.5-0.6 ship gmshio as a submodule that must be imported explicitly
     from dolfinx.io import gmshio as _gmshio
 except ImportError:  # pragma: no cover
@@ -117,6 +119,7 @@ def _jit_params() -> dict[str, Any]:
 
 def form(ufl_form: Any) -> Any:
     """A compiled dolfinx form, its kernels built with :data:`JIT_COMPILE_ARGS`."""
+    announce_if_nothing_cached()
     return dolfinx.fem.form(ufl_form, **_jit_params())
 
 
@@ -130,6 +133,7 @@ def quadrature_points(cell: str, degree: int) -> np.ndarray:
 
 def expression(expr: Any, points: np.ndarray) -> Any:
     """A compiled dolfinx Expression at reference points."""
+    announce_if_nothing_cached()
     return dolfinx.fem.Expression(expr, points, **_jit_params())
 
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import logging
+import os
 import sys
+from pathlib import Path
 from typing import Any
 
 
@@ -47,6 +49,32 @@ def quiet_compiler_logs() -> None:
 FIRST_COMPILE_S = 10
 
 
+_announced = False
+
+
+def say_compiling() -> None:
+    """Log the first run's compilation notice, once per process."""
+    global _announced
+    if not _announced:
+        _announced = True
+        logging.getLogger("suture_fem").info("compiling forms (first run only, about %d s; cached in ~/.cache/fenics)",
+                                             FIRST_COMPILE_S)
+
+
+def announce_if_nothing_cached() -> None:
+    """Say it before a form is built when the form cache is empty (a first run).
+
+    dolfinx 0.9's JIT compiles without a word (no distutils records for :class:`_CompilerNotice`), so
+    on Debian 13 an empty cache is how a first run is recognised; on Debian 12 the compiler's own
+    records say it too, and the notice is still said once.
+    """
+    if _announced:
+        return
+    cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "fenics"
+    if not cache.is_dir() or not any(cache.iterdir()):
+        say_compiling()
+
+
 class _CompilerNotice(logging.Handler):
     """The compiler's lines (root-logger records of distutils) to "suture_fem" at DEBUG, with one notice.
 
@@ -56,16 +84,14 @@ class _CompilerNotice(logging.Handler):
 
     def __init__(self) -> None:
         super().__init__(logging.DEBUG)
-        self.said = False
 
     def emit(self, record: logging.LogRecord) -> None:
         if record.name != "root":
             return
         message = record.getMessage()
         logger = logging.getLogger("suture_fem")
-        if not self.said and message.startswith("building 'libffcx"):
-            self.said = True
-            logger.info("compiling forms (first run only, about %d s; cached in ~/.cache/fenics)", FIRST_COMPILE_S)
+        if message.startswith("building 'libffcx"):
+            say_compiling()
         logger.debug("compiler: %s", message)
 
 

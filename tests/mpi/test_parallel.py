@@ -43,10 +43,17 @@ def assert_same_state(a: dict, b: dict) -> None:
                 ea, eb = ra["regions"][region], rb["regions"][region]
                 assert eb[q] == pytest.approx(ea[q], rel=REL), (region, q)
                 assert eb[q + "_at_mm"] == pytest.approx(ea[q + "_at_mm"], abs=1e-9), (region, q)  # the same disc
+    # The curve: every point is an equilibrium, so at every force both runs reached the displacements agree.
+    # The step sequence itself may differ (a partition's round-off moves a Newton count across the step
+    # controller's threshold: on Debian 13, 4 ranks took 8 steps where the serial run took 9); the issue
+    # asks to assert the physics, not a trajectory.
     fa, fb = np.array(a["force_displacement"]), np.array(b["force_displacement"])
-    assert fa.shape == fb.shape
-    assert fb[:, 0] == pytest.approx(fa[:, 0], rel=1e-12)  # the same load steps
-    assert fb[:, 1] == pytest.approx(fa[:, 1], rel=REL)
+    assert fa[0].tolist() == fb[0].tolist() == [0.0, 0.0] and fb[-1, 0] == pytest.approx(fa[-1, 0], rel=1e-12)
+    common = [(i, j) for i, f in enumerate(fa[:, 0]) for j, g in enumerate(fb[:, 0]) if abs(f - g) <= 1e-12 * fa[-1, 0]]
+    reports = {r["force_n"] for r in a["at_forces"]}
+    assert reports <= {fa[i, 0] for i, _ in common}  # the report forces at least
+    for i, j in common:
+        assert fb[j, 1] == pytest.approx(fa[i, 1], rel=REL), fa[i, 0]
 
 
 def test_two_ranks_give_the_serial_results(serial_run, parallel_run):

@@ -8,11 +8,13 @@ one. :func:`commit` does the same check and rename for a file another library wr
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
 import platform
 import shutil
+from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -74,7 +76,7 @@ def commit(tmp: Path, path: Path, size: int | None = None) -> Path:
     Raises:
         WriteError: the file is missing, empty or short, or cannot be flushed (it is removed).
     """
-    try:
+    with _removed_on_failure(tmp, path):
         with open(tmp, "rb+") as f:
             os.fsync(f.fileno())
             actual = os.fstat(f.fileno()).st_size
@@ -83,14 +85,21 @@ def commit(tmp: Path, path: Path, size: int | None = None) -> Path:
             raise WriteError(f"writing {path}: {actual} bytes on disk, expected {expected} "
                              f"({why(OSError(28, 'short write'), path.parent)}); nothing was written")
         os.replace(tmp, path)
+    sync_folder(path.parent)
+    return path
+
+
+@contextlib.contextmanager
+def _removed_on_failure(tmp: Path, path: Path) -> Iterator[None]:
+    """Remove ``tmp`` if the block fails; an OSError becomes one WriteError line naming ``path``."""
+    try:
+        yield
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         raise WriteError(f"writing {path}: {why(exc, path.parent)}; nothing was written") from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    sync_folder(path.parent)
-    return path
 
 
 def temporary_name(path: Path) -> Path:
@@ -108,16 +117,9 @@ def write_text(path: str | Path, text: str) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = temporary_name(path)
     data = text.encode("utf-8")
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-            f.flush()
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise WriteError(f"writing {path}: {why(exc, path.parent)}; nothing was written") from None
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with _removed_on_failure(tmp, path), open(tmp, "wb") as f:
+        f.write(data)
+        f.flush()
     return commit(tmp, path, len(data))
 
 

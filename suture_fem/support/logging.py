@@ -50,6 +50,7 @@ FIRST_COMPILE_S = 10
 
 
 _announced = False
+_cache_checked = False
 
 
 def say_compiling() -> None:
@@ -68,8 +69,10 @@ def announce_if_nothing_cached() -> None:
     on Debian 13 an empty cache is how a first run is recognised; on Debian 12 the compiler's own
     records say it too, and the notice is still said once.
     """
-    if _announced:
+    global _cache_checked
+    if _announced or _cache_checked:
         return
+    _cache_checked = True  # once per process: the cache only fills from here on
     cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "fenics"
     if not cache.is_dir() or not any(cache.iterdir()):
         say_compiling()

@@ -17,7 +17,7 @@ from suture_fem.studies.calibrate.study import check_scene
 
 def register(subparsers: Any, scene_args: Any) -> None:
     """Add the ``calibrate`` subcommand (``scene_args`` adds SCENE and ``--set``)."""
-    p = subparsers.add_parser("calibrate", help="fit scene keys to a measured pull curve, with 95 % intervals")
+    p = subparsers.add_parser("calibrate", help="fit scene keys to a measured pull curve, with 95 %% intervals")
     scene_args(p)
     p.add_argument("--data", required=True, metavar="CURVE.csv|paper",
                    help="rows force_n,displacement_mm[,sd_mm] of the thread end, or 'paper' (its USUM values)")

@@ -11,7 +11,9 @@ seconds per iteration (MUMPS, from the linear-solve time), assembly seconds, pea
         [--out benchmarks/out/speed]
 
 Wall times swing with the load of the machine; compare the CPU seconds and the iteration counts.
-``--peer`` (FElupe) is not implemented (see the issue-14 report).
+``--peer`` also runs the paper scene at P1 in FElupe beside ours, each in its own child process, and
+prints the CPU ratio and the USUM difference (benchmarks/peer_felupe.py, docs/peer.md; needs the optional
+extra ``peer``); ``--peer-only`` runs only that comparison (no before/after cases, no worktree).
 """
 
 from __future__ import annotations
@@ -112,6 +114,15 @@ def table(rows: list[dict]) -> str:
     return head + body
 
 
+def peer(code: Path) -> tuple[list[dict], str]:
+    """Ours (``code``) and FElupe on the same P1 mesh of the paper scene, side by side (benchmarks/peer_felupe.py)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import peer_felupe
+
+    with tempfile.TemporaryDirectory() as tmp:
+        return peer_felupe.compare(code, Path(tmp))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cases", default="run-P2,run-P1,reproduce", help=f"comma-separated, of {', '.join(CASES)}")
@@ -120,7 +131,18 @@ def main() -> None:
                     help="a commit to measure as 'now' (a worktree too) instead of this working tree, whose "
                     "uncommitted changes of others would enter the measurement")
     ap.add_argument("--out", default=str(ROOT / "benchmarks/out/speed"), help="output path without suffix")
+    ap.add_argument("--peer", action="store_true",
+                    help="also solve the paper scene at P1 in FElupe beside ours (benchmarks/peer_felupe.py)")
+    ap.add_argument("--peer-only", action="store_true", help="only the FElupe comparison (no before/after cases)")
     args = ap.parse_args()
+    if args.peer_only:
+        rows, text = peer(worktree(args.now) if args.now else ROOT)
+        print(text)
+        out = Path(args.out) if args.out != ap.get_default("out") else ROOT / "benchmarks/out/peer"
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.with_suffix(".json").write_text(json.dumps({"peer": rows}, indent=1))
+        out.with_suffix(".md").write_text(text + "\n")
+        return
     before = before_commit(args.before)
     codes = {"before": worktree(before), "now": worktree(args.now) if args.now else ROOT}
     rows = []
@@ -137,10 +159,14 @@ def main() -> None:
     for r in rows:
         if "usum_change_rel" in r:
             text += f"\n{r['case']}: USUM now / before - 1 = {', '.join(f'{c:.1e}' for c in r['usum_change_rel'])}"
+    peer_rows = None
+    if args.peer:
+        peer_rows, peer_text = peer(codes["now"])
+        text += "\n\nFElupe peer (paper scene, P1, USUM only, same mesh):\n\n" + peer_text
     print(text)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.with_suffix(".json").write_text(json.dumps({"before": before, "rows": rows}, indent=1))
+    out.with_suffix(".json").write_text(json.dumps({"before": before, "rows": rows, "peer": peer_rows}, indent=1))
     out.with_suffix(".md").write_text(text + "\n")
 
 

@@ -1,0 +1,486 @@
+"""The paper scene in FElupe (a peer code), on our P1 mesh with our energies, supports, load and tolerance.
+
+FElupe (PyPI ``felupe``, with ``tensortrax`` for energies written as functions of C: the optional extra
+``peer``; never a test dependency) solves the same discrete problem as ``suture-fem run paper --set
+mesh.degree=1``:
+
+* Mesh: the same gmsh model (suture_fem's own mesher, :func:`gmsh_mesh`), linear triangles, in metres.
+  FElupe's axisymmetric field takes x_1 = axial, x_2 = radial, so the points are (z, r) and each
+  triangle's node order is flipped to keep it counter-clockwise.
+* Quadrature: FElupe's 3-point triangle rule (degree 2), the same points and weights as basix's
+  degree-2 rule that our P1 forms use (``physics.forms.quadrature_degree``).
+* Energies (:func:`energy_functions`): Yeoh, Gent and St Venant-Kirchhoff exactly as
+  ``physics/materials.py`` writes them (ANSYS forms, ``materials.tissue_scale`` on every tissue
+  constant), written as tensortrax functions of C = F^T F; FElupe differentiates them (hyper-dual
+  numbers) for the stress and the tangent. One ``SolidBody`` per material region, all linked to one field.
+* Supports: u = 0 on the outer epidermis surface, u_r = 0 on the axis (``physics/constraints.py``).
+* Load: a dead axial force F on the thread's end face, as the consistent nodal forces of the traction
+  F / (pi r_t^2) weighted by 2 pi r (exact for P1 edges), a ``PointLoad``.
+* Stepping: a ``Step`` with substeps at the report forces 1, 2, 3, 4 N, FElupe's ``LinesearchPlugin``
+  (admissible J > 0 and sufficient decrease of the residual) and ``CutbackPlugin`` (halve a failed
+  substep, grow by 2 after a converged one), at most 25 Newton iterations per solve (``solver.max_iterations``).
+* Newton tolerance (:func:`residual_check`): the free residual's 2-norm at most 1e-9 of the applied
+  force (N), the bound that every converged state of ours meets (``solve/newton.py``: the relative,
+  absolute and increment tests all end at or below it), floored at ``solver.atol`` (1e-10 N).
+* Linear solver: FElupe's default, scipy's ``spsolve`` (SuperLU) on the free dofs.
+
+``--child`` runs one solve in this process and writes a JSON with its results and the process CPU time
+(``time.process_time``) at each phase; ``benchmarks/speed.py --peer`` starts it as a child process
+beside ours and measures both by their rusage. ``--check`` compares the two codes' strain energy and
+residual for one displacement field on the same mesh (they must agree to round-off before any solve
+is compared) and checks FElupe's element gradients by central differences: FElupe 11.3's
+``QuadraticTriangle`` has a miscoded shape-function derivative, so the comparison is at P1.
+
+    .venv/bin/python benchmarks/peer_felupe.py --check
+    .venv/bin/python benchmarks/peer_felupe.py --child --out X.json
+"""
+
+from __future__ import annotations
+
+import time
+
+T_START = time.process_time()
+
+import argparse  # noqa: E402  (the process CPU time is read before any import)
+import json  # noqa: E402
+import math  # noqa: E402
+import sys  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+#: The scene both codes solve (``speed.py``'s run-P1 case): the paper scene at P1, USUM only.
+SCENE_OVERRIDES = ["mesh.degree=1"]
+#: Report forces of the 0-4 N ramp (N), the FElupe step's substeps.
+FORCES_N = (1.0, 2.0, 3.0, 4.0)
+#: Free-residual tolerance as a fraction of the applied force (``solve/newton.py`` INCREMENT_STOP_RESIDUAL).
+RESIDUAL_RTOL = 1e-9
+MM = 1e-3
+
+
+@dataclass
+class GmshMesh:
+    """A linear triangle mesh in mm: points (r, z), triangles and boundary edges by tag."""
+
+    points: np.ndarray
+    cells: dict[int, np.ndarray]
+    facets: dict[int, np.ndarray]
+
+
+def scene():
+    """The paper scene at P1 (suture_fem's scene loader: defaults, built-in scene, overrides)."""
+    from suture_fem.scene import parse_scene
+
+    return parse_scene("paper", SCENE_OVERRIDES)
+
+
+def gmsh_mesh(sc: Any) -> GmshMesh:
+    """Mesh the scene with suture_fem's gmsh model (the same code and mesh as ``suture-fem run``)."""
+    import gmsh
+
+    from suture_fem.geometry.gmsh_model import MeshSizes, build_gmsh_model
+    from suture_fem.geometry.regions import CELL_TAGS, FACET_TAGS
+    from suture_fem.geometry.section import Geometry
+    from suture_fem.support import compat
+
+    with compat.gmsh_session():
+        try:
+            build_gmsh_model(Geometry.from_section(sc.geometry), MeshSizes.from_section(sc.mesh))
+            tags, xyz, _ = gmsh.model.mesh.getNodes()
+            index = np.full(int(tags.max()) + 1, -1)
+            index[tags.astype(int)] = np.arange(len(tags))
+
+            def elements(dim: int, tag: int, nodes: int) -> np.ndarray:
+                out = [gmsh.model.mesh.getElements(dim, e)[2] for e in gmsh.model.getEntitiesForPhysicalGroup(dim, tag)]
+                flat = np.concatenate([a for o in out for a in o]) if out else np.zeros(0)
+                return index[flat.astype(int)].reshape(-1, nodes)
+
+            cells = {t: elements(2, t, 3) for t in CELL_TAGS.values()}
+            facets = {t: elements(1, t, 2) for t in FACET_TAGS.values()}
+        finally:
+            gmsh.model.remove()
+    return GmshMesh(xyz.reshape(-1, 3)[:, :2].copy(), {t: c for t, c in cells.items() if len(c)}, facets)
+
+
+def energy_functions(sc: Any) -> dict[str, Any]:
+    """Region -> W(C) as a tensortrax function, exactly the energies of ``physics/materials.py``."""
+    import tensortrax.math as tm
+
+    s = sc.materials.tissue_scale
+
+    def invariants(C: Any) -> tuple[Any, Any]:
+        J = tm.sqrt(tm.linalg.det(C))
+        return J, J ** (-2.0 / 3.0) * tm.trace(C)
+
+    def yeoh(p: dict[str, float]) -> Any:
+        c = [p.get(f"c{i}0", 0.0) for i in range(1, 7)]
+        d = [p.get(f"inv_d{k}", 0.0) for k in range(1, 7)]
+
+        def W(C: Any) -> Any:
+            J, i1 = invariants(C)
+            iso = sum(ci * (i1 - 3) ** (i + 1) for i, ci in enumerate(c) if ci != 0.0)
+            vol = sum(dk * (J - 1) ** (2 * (k + 1)) for k, dk in enumerate(d) if dk != 0.0)
+            return s * (iso + vol)
+        return W
+
+    def gent(p: dict[str, float]) -> Any:
+        mu, jm, d = p["mu"], p["jm"], p["inv_d"]
+
+        def W(C: Any) -> Any:
+            J, i1 = invariants(C)
+            return s * (-0.5 * mu * jm * tm.log(1 - (i1 - 3) / jm) + d * ((J**2 - 1) / 2 - tm.log(J)))
+        return W
+
+    def svk(p: dict[str, float]) -> Any:
+        E, nu = p["young"], p["poisson"]
+        lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+
+        def W(C: Any) -> Any:
+            G = (C - tm.base.eye(C)) / 2
+            return 0.5 * lam * tm.trace(G) ** 2 + mu * tm.trace(G @ G)
+        return W
+
+    makers = {"yeoh": yeoh, "gent": gent, "svk": svk}
+    out = {}
+    for region in ("hypodermis", "dermis", "epidermis", "suture"):
+        spec = sc.materials.of(region)
+        params = {k: float(v) for k, v in spec.params.items() if isinstance(v, (int, float))}
+        out[region] = makers[spec.model](params)
+    return out
+
+
+@dataclass
+class Model:
+    """The FElupe problem: the global field, one SolidBody per region, the pull and the supports."""
+
+    field: Any
+    solids: list[Any]
+    load: Any
+    boundaries: dict[str, Any]
+    unit_force: np.ndarray
+    points_rz_m: np.ndarray
+    umats: dict[str, Any]
+
+
+def felupe_model(sc: Any, gm: GmshMesh) -> Model:
+    """The FElupe problem on the mesh: fields, solids, supports, the pull per newton of force."""
+    import felupe as fem
+
+    from suture_fem.geometry.regions import REGION_TAGS, Facet
+
+    rz = gm.points * MM
+    points = np.ascontiguousarray(rz[:, ::-1])  # FElupe axisymmetric: (axial, radial)
+    used = np.unique(np.concatenate(list(gm.cells.values())).ravel())
+    assert len(used) == len(points), "every gmsh node belongs to a triangle"
+    quad = fem.TriangleQuadrature(order=2)
+
+    def region_of(cells: np.ndarray) -> Any:
+        a, b, c = (points[cells[:, k]] for k in range(3))
+        cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) < 0
+        cells = np.where(cw[:, None], cells[:, [0, 2, 1]], cells)  # counter-clockwise in (z, r)
+        return fem.RegionTriangle(fem.Mesh(points, np.ascontiguousarray(cells), "triangle"), quadrature=quad)
+
+    all_cells = np.concatenate(list(gm.cells.values()))
+    field = fem.FieldContainer([fem.FieldAxisymmetric(region_of(all_cells), dim=2)])
+    functions = energy_functions(sc)
+    solids, umats = [], {}
+    for region, tags in REGION_TAGS.items():
+        cells = [gm.cells[t] for t in tags if t in gm.cells]
+        if not cells:
+            continue
+        sub = fem.FieldContainer([fem.FieldAxisymmetric(region_of(np.concatenate(cells)), dim=2)])
+        sub.link(field)
+        umats[region] = fem.Hyperelastic(functions[region])
+        solids.append(fem.SolidBody(umats[region], sub))
+    unit = pull_forces(rz, gm.facets[Facet.PULL_FACE], sc.geometry.thread_radius_mm * MM)
+    load = fem.PointLoad(field, np.arange(len(points)), values=np.zeros_like(points))
+    mask_outer = np.zeros(len(points), bool)
+    mask_outer[gm.facets[Facet.OUTER].ravel()] = True
+    mask_axis = np.zeros(len(points), bool)
+    mask_axis[gm.facets[Facet.AXIS].ravel()] = True
+    boundaries = {
+        "outer": fem.Boundary(field[0], mask=mask_outer),
+        "axis": fem.Boundary(field[0], mask=mask_axis, skip=(1, 0)),  # u_r (component 2) = 0
+    }
+    return Model(field, solids, load, boundaries, unit, rz, umats)
+
+
+def pull_forces(rz: np.ndarray, edges: np.ndarray, r_thread: float) -> np.ndarray:
+    """Nodal forces (axial, radial) of a 1 N axial pull: traction 1 / (pi r_t^2) on the end face's edges.
+
+    Each linear edge (i, j) of length L gets t 2 pi L (2 r_i + r_j) / 6 at i (and symmetrically at j):
+    the exact integral of t N_i 2 pi r ds, as our forms' degree-2 facet quadrature computes it.
+    """
+    t = 1.0 / (math.pi * r_thread**2)
+    f = np.zeros_like(rz)
+    for i, j in edges:
+        length = float(np.hypot(*(rz[i] - rz[j])))
+        f[i, 0] += t * 2 * math.pi * length * (2 * rz[i, 0] + rz[j, 0]) / 6
+        f[j, 0] += t * 2 * math.pi * length * (rz[i, 0] + 2 * rz[j, 0]) / 6
+    return f
+
+
+def strain_energy(model: Model) -> float:
+    """FElupe's strain energy (J): W(C) of each region at its quadrature points, integrated with 2 pi R dA."""
+    import tensortrax as tr
+
+    total = 0.0
+    for solid in model.solids:
+        F = solid.field.extract(grad=True)[0]
+        C = np.einsum("kI...,kJ...->IJ...", F, F)
+        W = tr.function(solid.umat.fun, wrt=0, ntrax=2)(C)
+        dA = solid.field.region.dV
+        total += float(np.sum(W * 2 * np.pi * solid.field[0].radius * dA))
+    return total
+
+
+def residual_check(model: Model) -> Any:
+    """FElupe's ``check``: converged when ||r_free||_2 <= max(1e-9 F, 1e-10 N), F the force applied now."""
+
+    def check(dx: Any, x: Any, f: Any, xtol: float, ftol: float, dof1: Any = None, dof0: Any = None,
+              items: Any = None, eps: float = 1e-3) -> tuple[float, float, bool]:
+        force = float(np.sum(model.load.values[:, 0]))
+        fnorm = float(np.linalg.norm(f[dof1]))
+        return float(np.linalg.norm(dx)), fnorm, bool(fnorm <= max(RESIDUAL_RTOL * abs(force), 1e-10))
+    return check
+
+
+def usum_mm(model: Model) -> float:
+    """USUM: the largest |u| over the mesh nodes (mm), as ``outputs/usum.py`` takes it."""
+    return float(np.max(np.linalg.norm(model.field[0].values, axis=1)) / MM)
+
+
+def solve(model: Model, max_iterations: int) -> dict[str, Any]:
+    """The 0-4 N ramp in FElupe: substeps at the report forces, line search, cutbacks; USUM at each force."""
+    import felupe as fem
+
+    class Record(fem.Plugin):
+        """Newton iterations (every one, in failed attempts too) and USUM at each converged substep."""
+
+        def __init__(self) -> None:
+            self.iterations = self.failed = 0
+            self.increments: list[float] = []
+            self.rows: list[dict[str, Any]] = []
+
+        def after_iteration(self, context: Any, state: Any) -> None:
+            self.iterations += 1
+
+        def after_newton(self, context: Any, state: Any) -> None:
+            self.increments.append(float(np.sum(model.load.values[:, 0])))
+
+        def after_substep(self, context: Any, state: Any) -> None:
+            self.rows.append({"force_n": float(np.sum(model.load.values[:, 0])), "usum_mm": usum_mm(model),
+                              "strain_energy_j": strain_energy(model), "residual_n": float(state.result.fnorms[-1])})
+
+    record = Record()
+    ramp = np.array([f * model.unit_force for f in FORCES_N])
+    step = fem.Step(items=[*model.solids, model.load], ramp={model.load: ramp}, boundaries=model.boundaries)
+    cutback = fem.CutbackPlugin(factor=0.5, growth=2.0, max_cutbacks=10)
+    job = fem.Job(steps=[step], plugins=[fem.LinesearchPlugin(), cutback, record])
+    job.evaluate(x0=model.field, check=residual_check(model), maxiter=max_iterations, verbose=0)
+    return {"newton_iterations": record.iterations, "solves": len(record.increments),
+            "cutbacks": int(sum(cutback.cutbacks)), "load_factors": cutback.load_factors,
+            "at_forces": record.rows, "usum_mm": record.rows[-1]["usum_mm"] if record.rows else None}
+
+
+def child(out: Path) -> None:
+    """One FElupe solve of the paper scene at P1 in this process; the process CPU at each phase to ``out``."""
+    cpu = {"start": T_START}
+    import felupe  # noqa: F401
+    import tensortrax  # noqa: F401
+    cpu["imports"] = time.process_time()
+    sc = scene()
+    gm = gmsh_mesh(sc)  # imports suture_fem's mesher (and, through it, dolfinx), as ours does
+    cpu["meshing"] = time.process_time()
+    model = felupe_model(sc, gm)
+    cpu["setup"] = time.process_time()
+    result = solve(model, sc.solver.max_iterations)
+    cpu["solve"] = time.process_time()
+    phases = dict(zip(list(cpu)[1:], np.diff(list(cpu.values())).tolist()))
+    _, free = felupe.dof.partition(model.field, model.boundaries)
+    result.update({"cpu_phases_s": phases, "nodes": len(gm.points), "unknowns": int(len(free)),
+                   "felupe": felupe.__version__, "linear_solver": "scipy.sparse.linalg.spsolve (SuperLU)"})
+    out.write_text(json.dumps(result, indent=1))
+
+
+def check_gradients() -> dict[str, float]:
+    """Max |FElupe's shape-function gradient - central differences| for its triangles (P1, P2)."""
+    import felupe as fem
+
+    rng = np.random.default_rng(0)
+    errors = {}
+    for name in ("Triangle", "QuadraticTriangle"):
+        element = getattr(fem, name)()
+        worst = 0.0
+        for _ in range(20):
+            rs = rng.dirichlet(np.ones(3))[:2]
+            h = 1e-6
+            fd = np.stack([(element.function(rs + h * e) - element.function(rs - h * e)) / (2 * h)
+                           for e in np.eye(2)], axis=1)
+            worst = max(worst, float(np.max(np.abs(element.gradient(rs) - fd))))
+        errors[name] = worst
+    return errors
+
+
+def test_field(rz: np.ndarray) -> np.ndarray:
+    """A smooth admissible displacement (m) at points (r, z) in m: u_r = 0 on the axis, 0 on the outer surface."""
+    r, z = rz[:, 0] / MM, rz[:, 1] / MM
+    bump = np.exp(-(((z - 20.0) / 8.0) ** 2)) * (1 - r / 3.6)
+    return np.stack([0.02 * r * bump * np.sin(z / 3.0), 0.3 * bump + 0.01 * np.cos(z / 5.0) * (3.6 - r)], axis=1) * MM
+
+
+def check_energies(force_n: float = 4.0) -> dict[str, float]:
+    """Strain energy and residual of ours and FElupe's for the same displacement on the same mesh."""
+    import dolfinx.fem
+    import dolfinx.fem.petsc
+    from mpi4py import MPI
+    from scipy.spatial import cKDTree
+
+    from suture_fem.geometry.mesh import create_mesh
+    from suture_fem.physics.problem import build_physics
+
+    sc = scene()
+    physics = build_physics(create_mesh(MPI.COMM_SELF, sc.geometry, sc.mesh), sc)
+    gm = gmsh_mesh(sc)
+    model = felupe_model(sc, gm)
+    xy = physics.V.tabulate_dof_coordinates()[:, :2]
+    dist, node = cKDTree(model.points_rz_m).query(xy)
+    assert dist.max() < 1e-12 and len(np.unique(node)) == len(node) == len(gm.points), "the same nodes"
+    u = test_field(model.points_rz_m)
+    physics.u.x.array[:] = u[node].ravel()
+    model.field[0].values[:] = u[:, ::-1]  # (u_z, u_r)
+    ours = float(dolfinx.fem.assemble_scalar(physics.form("energy")))
+    theirs = strain_energy(model)
+    physics.set_force(force_n)
+    model.load.update(force_n * model.unit_force)
+    b = dolfinx.fem.petsc.assemble_vector(physics.form("residual")).getArray().reshape(-1, 2)
+    r_ours = np.zeros_like(u)
+    r_ours[node] = b
+    items = [*model.solids, model.load]
+    for item in items:
+        item.field.link(model.field)
+    r_fel = sum(np.asarray(i.assemble.vector(field=i.field).todense()).reshape(-1, 2) * (i.assemble.multiplier or 1.0)
+                for i in items)
+    r_fel = r_fel[:, ::-1]
+    return {"energy_ours_j": ours, "energy_felupe_j": theirs, "energy_rel_diff": theirs / ours - 1.0,
+            "residual_max_abs_diff_n": float(np.max(np.abs(r_ours - r_fel))),
+            "residual_max_abs_n": float(np.max(np.abs(r_ours)))}
+
+
+#: Our side of the comparison: the same scene, USUM only (FElupe computes nothing else), no pictures.
+OURS_ARGS = ["run", "paper", *[a for o in SCENE_OVERRIDES for a in ("--set", o)],
+             "--set", 'output.quantities=["usum"]', "--no-pictures"]
+
+
+def _rusage(cmd: list[str], env: dict[str, str], cwd: Path) -> dict[str, Any]:
+    """Run ``cmd`` as a child process: its exit code, CPU seconds (user + system), wall seconds, peak MB."""
+    import os
+    import subprocess
+
+    load = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, env=env, cwd=str(cwd), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    row = {"exit": os.waitstatus_to_exitcode(status), "cpu_s": usage.ru_utime + usage.ru_stime,
+           "wall_s": time.perf_counter() - t0, "peak_mb": usage.ru_maxrss / 1024,
+           "load": [load, os.getloadavg()[0]]}
+    err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
+    if row["exit"] != 0:
+        row["error"] = err[-800:]
+    return row
+
+
+def compare(code: Path, tmp: Path) -> tuple[list[dict[str, Any]], str]:
+    """Ours (``code``: a tree or worktree of suture_fem) and FElupe, each in its own child process, side by side.
+
+    Returns the two rows and a text with the table, the CPU ratio, the USUM differences and the checks.
+    """
+    import os
+
+    env = dict(os.environ, PYTHONPATH=str(code), OMP_NUM_THREADS="1")
+    py = [sys.executable, "-P"]
+    check = tmp / "peer_check.json"
+    checked = _rusage([*py, str(Path(__file__).resolve()), "--check", "--out", str(check)], env, code)
+    ours = {"code": "suture_fem", **_rusage([*py, "-m", "suture_fem.cli", *OURS_ARGS, "--out", str(tmp / "ours")],
+                                            env, code)}
+    ours.update(_ours_results(tmp / "ours" / "results.json"))
+    fel = {"code": "FElupe", **_rusage([*py, str(Path(__file__).resolve()), "--child", "--out", str(tmp / "fel.json")],
+                                       env, code)}
+    if (tmp / "fel.json").is_file():
+        fel.update(json.loads((tmp / "fel.json").read_text()))
+    rows = [ours, fel]
+    checks = json.loads(check.read_text()) if check.is_file() else {"error": checked.get("error")}
+    return rows, _text(rows, checks)
+
+
+def _ours_results(path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        return {}
+    r = json.loads(path.read_text())
+    rows = [{"force_n": a["force_n"], "usum_mm": a["usum_mm"], "strain_energy_j": a.get("strain_energy_j"),
+             "residual_n": a.get("free_residual_norm_n")} for a in r.get("at_forces", [])]
+    return {"newton_iterations": r.get("newton_iterations"), "solves": r.get("load_steps"),
+            "cutbacks": r.get("cutbacks"), "at_forces": rows, "usum_mm": r.get("usum_mm"),
+            "unknowns": r.get("unknowns"), "newton_wall_s": r.get("timings_s", {}).get("newton_total"),
+            "linear_solver": r.get("linear_solver")}
+
+
+def _text(rows: list[dict[str, Any]], checks: dict[str, Any]) -> str:
+    head = ("| code | CPU (s) | wall (s) | peak (MB) | Newton its | load steps | USUM at 1 / 2 / 3 / 4 N (mm) "
+            "| free residual at 4 N (N) | load |\n" + "| --- " * 9 + "|\n")
+    body = ""
+    for r in rows:
+        at = r.get("at_forces", [])
+        usum = " / ".join(f"{a['usum_mm']:.9f}" for a in at)
+        res = f"{at[-1]['residual_n']:.1e}" if at and at[-1].get("residual_n") is not None else "-"
+        body += (f"| {r['code']} | {r['cpu_s']:.2f} | {r['wall_s']:.1f} | {r['peak_mb']:.0f} "
+                 f"| {r.get('newton_iterations')} | {r.get('solves')} | {usum} | {res} "
+                 f"| {r['load'][0]:.1f} / {r['load'][1]:.1f} |\n")
+    ours, fel = rows
+    lines = [head + body]
+    if ours["exit"] == 0 and fel["exit"] == 0:
+        lines.append(f"CPU FElupe / suture_fem = {fel['cpu_s'] / ours['cpu_s']:.2f} (whole child processes)")
+        phases = fel.get("cpu_phases_s", {})
+        lines.append("FElupe CPU by phase (s): " + ", ".join(f"{k} {v:.2f}" for k, v in phases.items())
+                     + f"; suture_fem Newton (wall): {ours.get('newton_wall_s') or 0:.2f} s")
+        diffs = [f"{a['force_n']:g} N: {b['usum_mm'] - a['usum_mm']:+.1e} mm ({b['usum_mm'] / a['usum_mm'] - 1:+.1e})"
+                 for a, b in zip(ours.get("at_forces", []), fel.get("at_forces", []))]
+        lines.append("USUM FElupe - suture_fem: " + "; ".join(diffs))
+    else:
+        lines += [f"{r['code']} failed (exit {r['exit']}): {r.get('error', '')}" for r in rows if r["exit"] != 0]
+    if "energy_rel_diff" in checks:
+        lines.append(f"Same displacement field, same mesh: strain energy FElupe / suture_fem - 1 = "
+                     f"{checks['energy_rel_diff']:.1e}; residual max |diff| {checks['residual_max_abs_diff_n']:.1e} N "
+                     f"of max |r| {checks['residual_max_abs_n']:.1e} N")
+        g = checks["gradient_fd_error"]
+        lines.append(f"FElupe shape-function gradient vs central differences, max |diff|: "
+                     f"Triangle {g['Triangle']:.1e}, QuadraticTriangle {g['QuadraticTriangle']:.1e} "
+                     "(miscoded: the comparison is at P1)")
+    else:
+        lines.append(f"checks failed: {checks}")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--child", action="store_true", help="solve the ramp in FElupe in this process")
+    ap.add_argument("--check", action="store_true", help="energy, residual and element-gradient checks")
+    ap.add_argument("--out", default=None, help="JSON output path")
+    args = ap.parse_args()
+    if args.child:
+        child(Path(args.out or ROOT / "benchmarks/out/peer_felupe_child.json"))
+        return
+    if args.check:
+        report = {"gradient_fd_error": check_gradients(), **check_energies()}
+        print(json.dumps(report, indent=1))
+        if args.out:
+            Path(args.out).write_text(json.dumps(report, indent=1))
+        return
+    ap.error("give --child or --check")
+
+
+if __name__ == "__main__":
+    main()

@@ -5,6 +5,7 @@ solved in OUT are reused, so an interrupted run resumes), prints a summary table
 OUT/summary.json and OUT/summary.md (the tables of every ledger, for docs/ledger.md).
 
     .venv/bin/python benchmarks/ledger.py [--out benchmarks/out/ledger] [--only paper] [--summary-only]
+    .venv/bin/python benchmarks/ledger.py --only stress-1cone-p2 --only stress-4cones-p2   # issue 17's ladders
 
 The finest rungs are slow on a 2-core machine (degree 1 refinement 2: about 100k cells; degree 2 is
 stopped at refinement 1): the whole benchmark takes 30-60 minutes there.
@@ -30,13 +31,26 @@ LADDERS = {
                      ["--set", "geometry.cone_fillet_mm=0.05"]),
 }
 COMMON = ["--degrees", "1,2", "--refinements", "0,1,2", "--cap", "2=1", "--forces", "1,4"]
+#: The ladders of issue 17's converging stress measures (the 0.04 mm fillet, degree 2; docs/ledger.md):
+#: name -> (title, every argument after the scene name). Not run by default (--only NAME).
+FILLET = ["--set", "geometry.cone_fillet_mm=0.04", "--degrees", "2"]
+STRESS_LADDERS = {
+    "stress-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2", [*FILLET, "--set", "geometry.cones=1", "--set",
+                                                           "loading.force_n=1", "--forces", "1", "--refinements",
+                                                           "0,1,2"]),
+    "stress-1cone-mixed": ("1 cone, 1 N, fillet 0.04 mm, P2/P1 mixed",
+                           [*FILLET, "--set", "geometry.cones=1", "--set", "loading.force_n=1", "--forces", "1",
+                            "--refinements", "0,1,2", "--formulations", "mixed"]),
+    "stress-4cones-p2": ("4 cones, fillet 0.04 mm, P2", [*FILLET, "--forces", "1,4", "--refinements", "0,1"]),
+}
 SUMMARY = ("usum_mm", "regions.tissue.seqv_pa", "regions.tissue.seqv_outside_rim_pa",
            "ledger.tissue_seqv_pa_beyond_0p25mm", "ledger.tissue_seqv_pa_beyond_0p5mm", "eptoeqv")
 
 
 def run_ladder(name: str, out: Path, redo: bool = False) -> dict:
-    title, extra = LADDERS[name]
-    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "convergence", "paper", *extra, *COMMON,
+    title, extra = LADDERS[name] if name in LADDERS else STRESS_LADDERS[name]
+    common = COMMON if name in LADDERS else []
+    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "convergence", "paper", *extra, *common,
            "--title", title, "--out", str(out / name), *(["--redo"] if redo else [])]
     print(f"$ {' '.join(cmd[1:])}", flush=True)
     proc = subprocess.run(cmd, cwd=ROOT)
@@ -70,7 +84,8 @@ def _cell(v, err) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(ROOT / "benchmarks/out/ledger"))
-    ap.add_argument("--only", choices=list(LADDERS), action="append", help="run only these ladders")
+    ap.add_argument("--only", choices=[*LADDERS, *STRESS_LADDERS], action="append",
+                    help="run only these ladders (the stress ladders of issue 17 only when named)")
     ap.add_argument("--summary-only", action="store_true", help="solve nothing: summarise the ledgers in OUT")
     ap.add_argument("--redo", action="store_true", help="solve every rung again")
     args = ap.parse_args()

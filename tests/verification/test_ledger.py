@@ -30,6 +30,31 @@ def test_richardson_calls_a_growing_or_oscillating_sequence_what_it_is():
     assert settled.verdict == "settled" and settled.limit == 1.0003 and settled.correction == pytest.approx(2e-4)
 
 
+def test_a_quantity_with_a_tolerance_settles_only_when_the_richardson_estimate_agrees():
+    # second order, last change 0.4 % and correction 0.13 %: settled with the extrapolated limit
+    est = richardson([1.0, 0.984, 0.98], tolerance=0.02)
+    assert est.verdict == "settled" and est.order == pytest.approx(2.0)
+    assert est.limit == pytest.approx(0.98 - 0.004 / 3)
+    assert richardson([1.0, 0.984, 0.98]).verdict == "converging"  # without the tolerance
+    assert richardson([1.0, 0.9, 0.885], tolerance=0.02).verdict == "settled"  # a first change of 10 % is allowed
+    # last change 1.9 %, order 0.6: the correction (3.1 %) is outside the tolerance
+    assert richardson([1.0, 0.9713, 0.9524], tolerance=0.02, min_order=0.5).verdict == "converging"
+    # changes within 2 % that do not shrink: no limit in sight, whatever the tolerance
+    assert richardson([1.0, 0.985, 0.97], tolerance=0.02, min_order=0.5).verdict == "diverging"
+    # an oscillation settles when its last change is within 2 % and shrinks (uncertainty: that change)
+    shrinking = richardson([1.0, 1.05, 1.045], tolerance=0.02)
+    assert shrinking.verdict == "settled" and shrinking.limit == 1.045 and shrinking.correction == pytest.approx(0.005)
+    assert richardson([1.0, 1.005, 0.99], tolerance=0.02).verdict == "oscillating"  # it grows
+    assert richardson([1.0, 1.05, 1.02], tolerance=0.02).verdict == "oscillating"  # last change 3 %
+
+
+def test_the_stress_measures_carry_the_issues_two_percent_and_usum_the_noise_floor_only():
+    tolerance = {q.path: q.tolerance for q in QUANTITIES}
+    assert tolerance["usum_mm"] == 0.0 and tolerance["regions.tissue.seqv_pa"] == 0.0
+    for path in ("seqv_fillet_pa", "eptoeqv_fillet", "seqv_cd_pa", "eptoeqv_cd"):
+        assert tolerance["regions.tissue." + path] == 0.02
+
+
 def test_two_rung_error_is_the_difference_over_two_to_the_p_minus_one():
     assert two_rung_error(4.1, 4.0, order=1.0) == pytest.approx(0.1)
     assert two_rung_error(4.1, 4.0, order=2.0) == pytest.approx(0.1 / 3)

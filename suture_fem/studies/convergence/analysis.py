@@ -30,22 +30,26 @@ def analyse(rungs: list[Rung], forces: Sequence[float]) -> dict[str, Any]:
         fk = force_key(force)
         per_q: dict[str, Any] = {}
         for q in QUANTITIES:
-            estimates = {key: _estimate(seq, fk, q.path) for key, seq in ladders.items()}
+            estimates = {key: _estimate(seq, fk, q.path, q.tolerance) for key, seq in ladders.items()}
             reference = _reference(estimates)
             per_q[q.path] = {"label": q.label, "unit": q.unit, "estimates": estimates, "reference": reference,
                              "rungs": _errors(ladders, fk, q.path, reference),
-                             "verdict": _verdict(estimates, reference, q.unit)}
+                             "tolerance": q.tolerance or SETTLED_REL,
+                             "verdict": _verdict(estimates, reference, q.unit, q.tolerance)}
         analysis[fk] = per_q
     return analysis
 
 
-def _estimate(seq: list[Rung], fk: str, path: str) -> dict[str, Any]:
-    """The Richardson estimate of one ladder (its rungs coarse to fine) and its changes per refinement."""
+def _estimate(seq: list[Rung], fk: str, path: str, tolerance: float = 0.0) -> dict[str, Any]:
+    """The Richardson estimate of one ladder (its rungs coarse to fine) and its changes per refinement.
+
+    ``tolerance``: the quantity's own "settled" goal (:data:`~.quantities.STRESS_TOLERANCE`), 0 for none.
+    """
     values = [r.values.get(fk, {}).get(path) for r in seq]
     # the consecutive run of refinements with a value, up to the finest
     pairs = [(r.refinement, v) for r, v in zip(seq, values) if v is not None]
     contiguous = _contiguous_tail(pairs)
-    est = richardson([v for _, v in contiguous], settled_rel=SETTLED_REL, min_order=MIN_ORDER)
+    est = richardson([v for _, v in contiguous], settled_rel=SETTLED_REL, min_order=MIN_ORDER, tolerance=tolerance)
     return {
         "refinements": [k for k, _ in contiguous],
         "values": [v for _, v in contiguous],
@@ -106,7 +110,7 @@ def _agreement(estimates: dict[str, Any], reference: dict[str, Any]) -> tuple[st
     return (("; " + ", ".join(notes)) if notes else ""), confirmed
 
 
-def _verdict(estimates: dict[str, Any], reference: dict[str, Any] | None, unit: str) -> str:
+def _verdict(estimates: dict[str, Any], reference: dict[str, Any] | None, unit: str, tolerance: float = 0.0) -> str:
     """One sentence: does the quantity converge, and do the other ladders agree with the reference?"""
     kinds = {e["verdict"] for e in estimates.values()}
     finest = "; finest values " + ", ".join(f"{k}: {fmt_value(e['values'][-1], unit)}" for k, e in estimates.items()
@@ -114,8 +118,7 @@ def _verdict(estimates: dict[str, Any], reference: dict[str, Any] | None, unit: 
     agreement, confirmed = _agreement(estimates, reference) if reference is not None else ("", True)
     if "converging" in kinds or "settled" in kinds:
         orders = ", ".join(f"{k}: {e['order']:.2f}" for k, e in estimates.items() if e["verdict"] == "converging")
-        head = (f"converges (observed order {orders})" if orders else
-                f"settled: changes below {100 * SETTLED_REL:g} % per refinement (no order measurable)")
+        head = (f"converges (observed order {orders})" if orders else _settled(estimates, tolerance))
         if not confirmed:
             head = (f"not settled: the {reference['from']} ladder suggests a limit ({head}) "
                     "that another degree contradicts")
@@ -125,6 +128,17 @@ def _verdict(estimates: dict[str, Any], reference: dict[str, Any] | None, unit: 
     if "oscillating" in kinds:
         return f"not monotone under refinement: no Richardson estimate{finest}"
     return f"too few rungs to tell{finest}"
+
+
+def _settled(estimates: dict[str, Any], tolerance: float) -> str:
+    """The verdict's head when every ladder with a limit has settled: below which change, and how."""
+    if tolerance <= SETTLED_REL:
+        return f"settled: changes below {100 * SETTLED_REL:g} % per refinement (no order measurable)"
+    orders = ", ".join(f"{k}: {e['order']:.2f}" for k, e in estimates.items()
+                       if e["verdict"] == "settled" and e["order"] is not None)
+    how = (f"its Richardson correction within it too, observed order {orders}" if orders else
+           "oscillating with a shrinking amplitude, the last change taken as its uncertainty")
+    return f"settled: the change between the two finest rungs is below {100 * tolerance:g} % ({how})"
 
 
 def within(analysis: dict[str, Any], rungs: list[Rung], force: float, path: str, tol: float) -> dict[str, Any]:

@@ -50,12 +50,21 @@ class Estimate:
 
 
 def richardson(values: Sequence[float], ratio: float = REFINEMENT_RATIO, settled_rel: float = 0.0,
-               min_order: float = 0.0) -> Estimate:
+               min_order: float = 0.0, tolerance: float = 0.0) -> Estimate:
     """Observed order and extrapolated limit from the last three of ``values`` (coarse to fine).
 
-    When both changes are within ``settled_rel`` of the finest value, the ladder is "settled": the
-    finest value is the estimate and the last change its uncertainty (no order is measurable). An
-    observed order at or below ``min_order`` is "diverging": no extrapolation is made.
+    When both changes are within ``settled_rel`` of the finest value (the noise floor of a new mesh
+    per rung), the ladder is "settled": the finest value is the estimate and the last change its
+    uncertainty (no order is measurable). An observed order at or below ``min_order`` is
+    "diverging": no extrapolation is made.
+
+    ``tolerance`` is a quantity's own accuracy goal (issue 17: 2 % for the converging stress
+    measures). The ladder is also "settled" when the change between its two finest rungs is within
+    it and the Richardson estimate agrees: a converging ladder whose correction (extrapolated limit
+    minus finest value) is within the tolerance too (limit and correction as extrapolated), or an
+    oscillation whose amplitude shrinks (the finest value, the last change its uncertainty). A last
+    change within the tolerance that does not shrink is not settled: nothing says the next
+    refinement would stay within it.
     """
     if len(values) < 3:
         return Estimate(None, None, "too few rungs")
@@ -63,13 +72,17 @@ def richardson(values: Sequence[float], ratio: float = REFINEMENT_RATIO, settled
     d1, d2 = q1 - q0, q2 - q1
     if max(abs(d1), abs(d2)) <= settled_rel * abs(q2):
         return Estimate(None, q2, "settled", abs(d2))
+    within = abs(d2) <= tolerance * abs(q2)
     if d1 * d2 <= 0.0:
+        if within and abs(d2) <= abs(d1):
+            return Estimate(None, q2, "settled", abs(d2))
         return Estimate(None, None, "oscillating")
     order = math.log(d1 / d2) / math.log(ratio)
     if order <= max(min_order, 0.0):
         return Estimate(order, None, "diverging")
     correction = d2 / (ratio**order - 1.0)
-    return Estimate(order, q2 + correction, "converging", correction)
+    settled = within and abs(correction) <= tolerance * abs(q2)
+    return Estimate(order, q2 + correction, "settled" if settled else "converging", correction)
 
 
 def two_rung_error(fine: float, coarse: float, order: float = 1.0, ratio: float = REFINEMENT_RATIO) -> float:

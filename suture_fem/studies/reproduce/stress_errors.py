@@ -1,0 +1,77 @@
+"""Error bars of the tissue's stress and strain measures in ``reproduce``, from measured ladders.
+
+A value solved on one mesh rung (degree, refinement) gets the relative error bar
+
+    |Q_rung - Q_finest| + |Q_finest - Q_second finest|     (divided by |Q_finest|)
+
+from a ladder of the same case (cone count, tissue_scale, fillet radius, critical distance, 1 N) in
+:data:`LADDERS`: its distance to the finest rung solved, plus the spread between the two finest rungs
+as the finest rung's own uncertainty. The ratio of two cone counts gets the same bar computed from the
+ratios rung by rung (both cone counts solved on the same rung), so errors the two cone counts share
+cancel in it as they do in the ratio itself. This is the spread between the two finest rungs, not a
+Richardson estimate: the ledgers (docs/ledger.md) do not give these measures a settled limit at every
+rung, and where they do the spread is the larger of the two.
+
+Where no ladder of the case was measured, the bar is None and the report says "not measured". The
+ladders were solved with ``suture-fem convergence paper_reproduction --set geometry.cones=N --set
+loading.force_n=1 [--set materials.tissue_scale=S] --forces 1 --degrees 1 --refinements 0,1,2`` (sharp
+rims, the scene's default) and read by ``benchmarks/stress_errors.py``, which prints this table.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+#: The tissue measures with ladders: results.json keys under ``regions.tissue``.
+MEASURED = ("seqv_cd_pa", "eptoeqv_cd", "seqv_fillet_pa", "eptoeqv_fillet")
+
+#: (cones, tissue_scale, cone_fillet_mm, critical_distance_mm) -> rung (degree, refinement) -> measure -> value
+#: at 1 N. Rungs of one ladder differ only in mesh.refinement (every size halves) or mesh.degree.
+LADDERS: dict[tuple[int, float, float, float], dict[tuple[int, int], dict[str, float]]] = {}
+
+#: Two tissue scales are the same case within this relative tolerance (a calibration run lands a few
+#: 1e-3 from the value a ladder was measured at; the bars are not that precise).
+SCALE_TOLERANCE = 0.02
+
+
+def _case(results: dict[str, Any]) -> tuple[tuple[int, float, float, float] | None, tuple[int, int]]:
+    """The ladder key matching a results.json (None when no ladder was measured) and its rung."""
+    scene = results.get("scene", {})
+    g, m = scene.get("geometry", {}), scene.get("mesh", {})
+    scale = scene.get("materials", {}).get("tissue_scale", 1.0)
+    fillet, distance = g.get("cone_fillet_mm", 0.0), scene.get("output", {}).get("critical_distance_mm")
+    rung = (m.get("degree"), m.get("refinement"))
+    for key in LADDERS:
+        cones, s, f, d = key
+        if (cones == g.get("cones") and abs(s - scale) <= SCALE_TOLERANCE * s and f == fillet and d == distance
+                and m.get("size_suture_mm") == 0.15):
+            return key, rung
+    return None, rung
+
+
+def _bar(ladder: dict[tuple[int, int], float], rung: tuple[int, int]) -> float | None:
+    """|Q_rung - Q_finest| + |Q_finest - Q_second|, relative to |Q_finest|, on one degree's ladder."""
+    same = sorted(k for k in ladder if k[0] == rung[0] and ladder[k] is not None)
+    if rung not in same or len(same) < 2 or not ladder[same[-1]]:
+        return None
+    finest, second = ladder[same[-1]], ladder[same[-2]]
+    return (abs(ladder[rung] - finest) + abs(finest - second)) / abs(finest)
+
+
+def error_bar(results: dict[str, Any], measure: str) -> float | None:
+    """The relative error bar of ``measure`` in one cone count's results.json at 1 N, None if not measured."""
+    key, rung = _case(results)
+    if key is None:
+        return None
+    return _bar({k: v.get(measure) for k, v in LADDERS[key].items()}, rung)
+
+
+def ratio_error_bar(results_a: dict[str, Any], results_b: dict[str, Any], measure: str) -> float | None:
+    """The relative error bar of ``measure``'s ratio b / a (e.g. 4 over 2 cones), from the ratios rung by rung."""
+    (ka, ra), (kb, rb) = _case(results_a), _case(results_b)
+    if ka is None or kb is None or ra != rb:
+        return None
+    a, b = LADDERS[ka], LADDERS[kb]
+    ratios = {k: b[k][measure] / a[k][measure] for k in set(a) & set(b)
+              if a[k].get(measure) and b[k].get(measure) is not None}
+    return _bar(ratios, ra)

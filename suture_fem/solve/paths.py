@@ -16,6 +16,8 @@ class Path:
 
     label = "load"
     reports = True
+    #: The residual depends linearly on s (the tangent predictor then needs no derivative of the loads).
+    linear_in_s = True
 
     def __init__(self, physics: Physics, targets: list[float], initial: float, min_step: float, max_step: float,
                  grow: float):
@@ -99,6 +101,7 @@ class TimeHistory(Path):
     """Inertia: s is time; the force ramps over ``loading.ramp_s`` and is held for ``loading.hold_s``."""
 
     label = "time"
+    linear_in_s = False  # the time step and the inertia terms change with t
 
     def __init__(self, physics: Physics, scene: Scene):
         """Targets at the report forces' times, the end of the ramp and of the hold; steps of ``time_step_s``."""

@@ -75,6 +75,13 @@ INCREMENT_STOP_RESIDUAL = 1e-9
 #: An energy line search that fails below this fraction of the applied force (N) in residual has met the
 #: rounding of the energy, not a divergence: the solve goes on with full Newton steps from where it is.
 FULL_STEP_RESIDUAL = 1e-6
+#: A solve with the energy line search whose residual is still above STALL_FRACTION of its start after
+#: STALL_ITERATIONS iterations is given up (and the step cut) instead of running to ``solver.max_iterations``:
+#: the energy may fall while the residual does not (measured: the paper scene with 0.04 mm fillets at P1,
+#: first step 0.4 N, residual 0.30 -> 0.82 -> 0.49 after 10 iterations, 0.076 after 25, failed; the
+#: converging first steps measured were below 0.75 of their start after 10 iterations).
+STALL_ITERATIONS = 10
+STALL_FRACTION = 0.9
 #: Direct solvers in the order they are tried ("petsc", serial only, last).
 FALLBACK_ORDER = ("mumps", "superlu_dist", "petsc")
 #: The reason :meth:`NewtonSolver.solve` returns when PETSc raised an error (a failed factorisation
@@ -305,6 +312,10 @@ class NewtonSolver:
             return reasons.DIVERGED_DTOL
         if self._line_search_on_energy and fnorm < FULL_STEP_RESIDUAL * self._force_scale():
             return reasons.CONVERGED_ITS
+        if its >= STALL_ITERATIONS and fnorm > STALL_FRACTION * self._fnorm0:
+            log.info("Newton makes no progress: the residual is still %.0f %% of its start after %d iterations; "
+                     "the step is given up", 100 * fnorm / self._fnorm0, its)
+            return reasons.DIVERGED_MAX_IT
         return reasons.CONVERGED_ITERATING
 
     @property

@@ -16,9 +16,11 @@ mesh.degree=1``:
 * Supports: u = 0 on the outer epidermis surface, u_r = 0 on the axis (``physics/constraints.py``).
 * Load: a dead axial force F on the thread's end face, as the consistent nodal forces of the traction
   F / (pi r_t^2) weighted by 2 pi r (exact for P1 edges), a ``PointLoad``.
-* Stepping: a ``Step`` with substeps at the report forces 1, 2, 3, 4 N, FElupe's ``LinesearchPlugin``
-  (admissible J > 0 and sufficient decrease of the residual) and ``CutbackPlugin`` (halve a failed
-  substep, grow by 2 after a converged one), at most 25 Newton iterations per solve (``solver.max_iterations``).
+* Stepping: a ``Step`` with substeps at 0 N and at the report forces 1, 2, 3, 4 N, FElupe's
+  ``LinesearchPlugin`` (admissible J > 0 and sufficient decrease of the residual) and ``CutbackPlugin``
+  (halve a failed substep, grow by 2 after a converged one), at most 25 Newton iterations per solve
+  (``solver.max_iterations``). The 0 N substep converges in its one iteration (counted); without it the
+  plugin cannot subdivide the first substep. Newton iterations count every iteration, failed attempts too.
 * Newton tolerance (:func:`residual_check`): the free residual's 2-norm at most 1e-9 of the applied
   force (N), the bound that every converged state of ours meets (``solve/newton.py``: the relative,
   absolute and increment tests all end at or below it), floored at ``solver.atol`` (1e-10 N).
@@ -52,8 +54,6 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-#: The scene both codes solve (``speed.py``'s run-P1 case): the paper scene at P1, USUM only.
-SCENE_OVERRIDES = ["mesh.degree=1"]
 #: Report forces of the 0-4 N ramp (N), the FElupe step's substeps.
 FORCES_N = (1.0, 2.0, 3.0, 4.0)
 #: Free-residual tolerance as a fraction of the applied force (``solve/newton.py`` INCREMENT_STOP_RESIDUAL).
@@ -70,11 +70,11 @@ class GmshMesh:
     facets: dict[int, np.ndarray]
 
 
-def scene():
-    """The paper scene at P1 (suture_fem's scene loader: defaults, built-in scene, overrides)."""
+def scene(degree: int) -> Any:
+    """The paper scene at this degree (suture_fem's scene loader: defaults, built-in scene, overrides)."""
     from suture_fem.scene import parse_scene
 
-    return parse_scene("paper", SCENE_OVERRIDES)
+    return parse_scene("paper", [f"mesh.degree={degree}"])
 
 
 def gmsh_mesh(sc: Any) -> GmshMesh:
@@ -163,63 +163,159 @@ class Model:
     unit_force: np.ndarray
     points_rz_m: np.ndarray
     umats: dict[str, Any]
+    gent_jm: dict[int, float]
+
+    def inside_gent_limit(self, trial: Any) -> bool:
+        """A ``LinesearchPlugin`` criterion: I1bar - 3 < Jm at every quadrature point of every Gent region.
+
+        FElupe's line search checks only det F > 0. Gent's energy is undefined past its locking limit
+        while the stress tensortrax derives from it stays finite there (d/dx ln(1 - x / Jm) =
+        -1 / (Jm - x)), so without this criterion Newton can converge to a state past the limit (it
+        did at P2: I1bar - 3 = 2.5 > Jm = 1.2 in an epidermis cell from 2 N on). Ours rejects such a trial
+        in its domain guard (``solve/guard.py``).
+        """
+        for index, jm in self.gent_jm.items():
+            solid = self.solids[index]
+            solid.field.link(trial.x)
+            F = solid.field.extract(grad=True)[0]
+            C = np.einsum("kI...,kJ...->IJ...", F, F)
+            with np.errstate(invalid="ignore"):
+                i1 = np.linalg.det(np.moveaxis(C, (0, 1), (-2, -1))) ** (-1.0 / 3.0) * np.einsum("ii...->...", C)
+            if not np.all(i1 - 3 < jm):
+                return False
+        return True
+
+
+def corrected_quadratic_triangle() -> Any:
+    """FElupe's QuadraticTriangle with its shape-function gradient corrected (FElupe 11.3 miscodes one entry).
+
+    Node 5 (the midpoint of edge 2-0) has h_5 = 4 s (1 - r - s), so dh_5/ds = 4 (1 - r - 2 s); FElupe 11.3
+    writes 4 (1 - 2 r - s) (``t1 - t2`` for ``t1 - t3``), which also reaches nodes 0 and 2 through the
+    corner corrections. ``check_gradients`` shows the error and the fix by central differences.
+    """
+    import felupe as fem
+
+    class QuadraticTriangleFixed(fem.QuadraticTriangle):
+        def gradient(self, rs: Any) -> np.ndarray:
+            r, s = rs
+            t1 = 1 - r - s
+            d = np.array([[-1, -1], [1, 0], [0, 1], [4 * (t1 - r), -4 * r], [4 * s, 4 * r], [-4 * s, 4 * (t1 - s)]],
+                         dtype=float)
+            d[0] += -d[3] / 2 - d[5] / 2
+            d[1] += -d[3] / 2 - d[4] / 2
+            d[2] += -d[4] / 2 - d[5] / 2
+            return d
+
+    return QuadraticTriangleFixed()
+
+
+@dataclass
+class Discrete:
+    """Points (axial, radial) in m, counter-clockwise cells (3 or 6 nodes), rows of each region, element, rule."""
+
+    points: np.ndarray
+    cells: np.ndarray
+    rows: dict[str, np.ndarray]
+    element: Any
+    quadrature: Any
+    cell_type: str
+
+    def edge_nodes(self, edges: np.ndarray) -> np.ndarray:
+        """The nodes of linear edges (i, j): (i, j), or (i, m, j) with the midpoint m at degree 2."""
+        if self.cell_type == "triangle":
+            return edges
+        from scipy.spatial import cKDTree
+
+        dist, mid = cKDTree(self.points).query(0.5 * (self.points[edges[:, 0]] + self.points[edges[:, 1]]))
+        assert dist.max() < 1e-12, "every edge has its midpoint node"
+        return np.stack([edges[:, 0], mid, edges[:, 1]], axis=1)
+
+
+def discretise(sc: Any, gm: GmshMesh) -> Discrete:
+    """FElupe's mesh of the gmsh mesh at the scene's degree: P1, or P2 (midpoints added, corrected element)."""
+    import felupe as fem
+
+    from suture_fem.geometry.regions import REGION_TAGS
+
+    points = np.ascontiguousarray(gm.points[:, ::-1] * MM)  # FElupe axisymmetric: (axial, radial)
+    order = [(region, t) for region, tags in REGION_TAGS.items() for t in tags if t in gm.cells]
+    cells = np.concatenate([gm.cells[t] for _, t in order])
+    assert len(np.unique(cells)) == len(points), "every gmsh node belongs to a triangle"
+    a, b, c = (points[cells[:, k]] for k in range(3))
+    cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) < 0
+    cells = np.where(cw[:, None], cells[:, [0, 2, 1]], cells)  # (r, z) -> (z, r) mirrors: counter-clockwise
+    ends = np.cumsum([0] + [len(gm.cells[t]) for _, t in order])
+    rows: dict[str, list[np.ndarray]] = {}
+    for (region, _), lo, hi in zip(order, ends[:-1], ends[1:]):
+        rows.setdefault(region, []).append(np.arange(lo, hi))
+    merged = {region: np.concatenate(r) for region, r in rows.items()}
+    if sc.mesh.degree == 1:
+        return Discrete(points, cells, merged, fem.Triangle(), fem.TriangleQuadrature(order=2), "triangle")
+    import basix
+
+    mesh = fem.Mesh(points, np.ascontiguousarray(cells), "triangle").add_midpoints_edges()
+    # our P2 forms' rule (quadrature degree 4, basix): FElupe's triangle rules stop at order 3 and 5
+    qp, qw = basix.make_quadrature(basix.CellType.triangle, 4)
+    return Discrete(mesh.points, mesh.cells, merged, corrected_quadratic_triangle(),
+                    fem.quadrature.Scheme(qp, qw), "triangle6")
 
 
 def felupe_model(sc: Any, gm: GmshMesh) -> Model:
     """The FElupe problem on the mesh: fields, solids, supports, the pull per newton of force."""
     import felupe as fem
 
-    from suture_fem.geometry.regions import REGION_TAGS, Facet
+    from suture_fem.geometry.regions import Facet
 
-    rz = gm.points * MM
-    points = np.ascontiguousarray(rz[:, ::-1])  # FElupe axisymmetric: (axial, radial)
-    used = np.unique(np.concatenate(list(gm.cells.values())).ravel())
-    assert len(used) == len(points), "every gmsh node belongs to a triangle"
-    quad = fem.TriangleQuadrature(order=2)
+    d = discretise(sc, gm)
 
-    def region_of(cells: np.ndarray) -> Any:
-        a, b, c = (points[cells[:, k]] for k in range(3))
-        cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) < 0
-        cells = np.where(cw[:, None], cells[:, [0, 2, 1]], cells)  # counter-clockwise in (z, r)
-        return fem.RegionTriangle(fem.Mesh(points, np.ascontiguousarray(cells), "triangle"), quadrature=quad)
+    def field_on(cells: np.ndarray) -> Any:
+        region = fem.Region(fem.Mesh(d.points, np.ascontiguousarray(cells), d.cell_type), d.element, d.quadrature)
+        return fem.FieldContainer([fem.FieldAxisymmetric(region, dim=2)])
 
-    all_cells = np.concatenate(list(gm.cells.values()))
-    field = fem.FieldContainer([fem.FieldAxisymmetric(region_of(all_cells), dim=2)])
+    field = field_on(d.cells)
     functions = energy_functions(sc)
     solids, umats = [], {}
-    for region, tags in REGION_TAGS.items():
-        cells = [gm.cells[t] for t in tags if t in gm.cells]
-        if not cells:
-            continue
-        sub = fem.FieldContainer([fem.FieldAxisymmetric(region_of(np.concatenate(cells)), dim=2)])
+    for region, rows in d.rows.items():
+        sub = field_on(d.cells[rows])
         sub.link(field)
         umats[region] = fem.Hyperelastic(functions[region])
         solids.append(fem.SolidBody(umats[region], sub))
-    unit = pull_forces(rz, gm.facets[Facet.PULL_FACE], sc.geometry.thread_radius_mm * MM)
-    load = fem.PointLoad(field, np.arange(len(points)), values=np.zeros_like(points))
-    mask_outer = np.zeros(len(points), bool)
-    mask_outer[gm.facets[Facet.OUTER].ravel()] = True
-    mask_axis = np.zeros(len(points), bool)
-    mask_axis[gm.facets[Facet.AXIS].ravel()] = True
+    rz = np.ascontiguousarray(d.points[:, ::-1])
+    unit = pull_forces(rz, d.edge_nodes(gm.facets[Facet.PULL_FACE]), sc.geometry.thread_radius_mm * MM)
+    load = fem.PointLoad(field, np.arange(len(d.points)), values=np.zeros_like(d.points))
+    masks = {}
+    for name, tag in (("outer", Facet.OUTER), ("axis", Facet.AXIS)):
+        masks[name] = np.zeros(len(d.points), bool)
+        masks[name][d.edge_nodes(gm.facets[tag]).ravel()] = True
     boundaries = {
-        "outer": fem.Boundary(field[0], mask=mask_outer),
-        "axis": fem.Boundary(field[0], mask=mask_axis, skip=(1, 0)),  # u_r (component 2) = 0
+        "outer": fem.Boundary(field[0], mask=masks["outer"]),
+        "axis": fem.Boundary(field[0], mask=masks["axis"], skip=(1, 0)),  # u_r (component 2) = 0
     }
-    return Model(field, solids, load, boundaries, unit, rz, umats)
+    gent = {i: float(sc.materials.of(region).params["jm"]) for i, region in enumerate(umats)
+            if sc.materials.of(region).model == "gent"}
+    return Model(field, solids, load, boundaries, unit, rz, umats, gent)
 
 
 def pull_forces(rz: np.ndarray, edges: np.ndarray, r_thread: float) -> np.ndarray:
     """Nodal forces (axial, radial) of a 1 N axial pull: traction 1 / (pi r_t^2) on the end face's edges.
 
-    Each linear edge (i, j) of length L gets t 2 pi L (2 r_i + r_j) / 6 at i (and symmetrically at j):
-    the exact integral of t N_i 2 pi r ds, as our forms' degree-2 facet quadrature computes it.
+    The integral of t N_a 2 pi r ds over each straight edge (nodes i, j or i, m, j; N_a linear or
+    quadratic, r linear) by 3-point Gauss-Legendre, exact for these polynomials as our forms' facet
+    quadrature is.
     """
     t = 1.0 / (math.pi * r_thread**2)
+    xi, w = np.polynomial.legendre.leggauss(3)
+    xi, w = (xi + 1) / 2, w / 2  # on [0, 1]
+    if edges.shape[1] == 2:
+        shape = np.stack([1 - xi, xi])
+    else:
+        shape = np.stack([(1 - xi) * (1 - 2 * xi), 4 * xi * (1 - xi), xi * (2 * xi - 1)])
     f = np.zeros_like(rz)
-    for i, j in edges:
+    for nodes in edges:
+        i, j = nodes[0], nodes[-1]
         length = float(np.hypot(*(rz[i] - rz[j])))
-        f[i, 0] += t * 2 * math.pi * length * (2 * rz[i, 0] + rz[j, 0]) / 6
-        f[j, 0] += t * 2 * math.pi * length * (rz[i, 0] + 2 * rz[j, 0]) / 6
+        r = rz[i, 0] * (1 - xi) + rz[j, 0] * xi
+        np.add.at(f[:, 0], nodes, t * 2 * math.pi * length * (shape * r * w).sum(axis=1))
     return f
 
 
@@ -229,6 +325,7 @@ def strain_energy(model: Model) -> float:
 
     total = 0.0
     for solid in model.solids:
+        solid.field.link(model.field)  # the unknowns (a line search may have left the solid on its last trial)
         F = solid.field.extract(grad=True)[0]
         C = np.einsum("kI...,kJ...->IJ...", F, F)
         W = tr.function(solid.umat.fun, wrt=0, ntrax=2)(C)
@@ -253,7 +350,7 @@ def usum_mm(model: Model) -> float:
     return float(np.max(np.linalg.norm(model.field[0].values, axis=1)) / MM)
 
 
-def solve(model: Model, max_iterations: int) -> dict[str, Any]:
+def solve(model: Model, max_iterations: int, substep_n: float = 1.0) -> dict[str, Any]:
     """The 0-4 N ramp in FElupe: substeps at the report forces, line search, cutbacks; USUM at each force."""
     import felupe as fem
 
@@ -272,38 +369,47 @@ def solve(model: Model, max_iterations: int) -> dict[str, Any]:
             self.increments.append(float(np.sum(model.load.values[:, 0])))
 
         def after_substep(self, context: Any, state: Any) -> None:
+            if np.sum(model.load.values[:, 0]) == 0.0:
+                return
             self.rows.append({"force_n": float(np.sum(model.load.values[:, 0])), "usum_mm": usum_mm(model),
                               "strain_energy_j": strain_energy(model), "residual_n": float(state.result.fnorms[-1])})
 
     record = Record()
-    ramp = np.array([f * model.unit_force for f in FORCES_N])
+    # a first substep at 0 N (converged at once: one Newton iteration, counted) gives the CutbackPlugin the
+    # previous values it needs to subdivide the first real substep (0 -> 1 N fails at P2)
+    forces = np.unique(np.concatenate([np.arange(0.0, FORCES_N[-1], substep_n), FORCES_N]))
+    ramp = np.array([f * model.unit_force for f in forces])
     step = fem.Step(items=[*model.solids, model.load], ramp={model.load: ramp}, boundaries=model.boundaries)
     cutback = fem.CutbackPlugin(factor=0.5, growth=2.0, max_cutbacks=10)
-    job = fem.Job(steps=[step], plugins=[fem.LinesearchPlugin(), cutback, record])
+    search = fem.LinesearchPlugin(criteria=[model.inside_gent_limit])
+    job = fem.Job(steps=[step], plugins=[search, cutback, record])
     job.evaluate(x0=model.field, check=residual_check(model), maxiter=max_iterations, verbose=0)
     return {"newton_iterations": record.iterations, "solves": len(record.increments),
             "cutbacks": int(sum(cutback.cutbacks)), "load_factors": cutback.load_factors,
             "at_forces": record.rows, "usum_mm": record.rows[-1]["usum_mm"] if record.rows else None}
 
 
-def child(out: Path) -> None:
-    """One FElupe solve of the paper scene at P1 in this process; the process CPU at each phase to ``out``."""
+def child(out: Path, degree: int, substep_n: float = 1.0, save: Path | None = None) -> None:
+    """One FElupe solve of the paper scene in this process; the process CPU at each phase to ``out``."""
     cpu = {"start": T_START}
     import felupe  # noqa: F401
     import tensortrax  # noqa: F401
     cpu["imports"] = time.process_time()
-    sc = scene()
+    sc = scene(degree)
     gm = gmsh_mesh(sc)  # imports suture_fem's mesher (and, through it, dolfinx), as ours does
     cpu["meshing"] = time.process_time()
     model = felupe_model(sc, gm)
     cpu["setup"] = time.process_time()
-    result = solve(model, sc.solver.max_iterations)
+    result = solve(model, sc.solver.max_iterations, substep_n)
+    result["degree"] = degree
     cpu["solve"] = time.process_time()
     phases = dict(zip(list(cpu)[1:], np.diff(list(cpu.values())).tolist()))
     _, free = felupe.dof.partition(model.field, model.boundaries)
     result.update({"cpu_phases_s": phases, "nodes": len(gm.points), "unknowns": int(len(free)),
                    "felupe": felupe.__version__, "linear_solver": "scipy.sparse.linalg.spsolve (SuperLU)"})
     out.write_text(json.dumps(result, indent=1))
+    if save is not None:  # the converged state at 4 N, for a look at it (not part of the measurement)
+        np.savez(save, points_rz_m=model.points_rz_m, u_zr_m=model.field[0].values)
 
 
 def check_gradients() -> dict[str, float]:
@@ -312,8 +418,9 @@ def check_gradients() -> dict[str, float]:
 
     rng = np.random.default_rng(0)
     errors = {}
-    for name in ("Triangle", "QuadraticTriangle"):
-        element = getattr(fem, name)()
+    elements = {"Triangle": fem.Triangle(), "QuadraticTriangle": fem.QuadraticTriangle(),
+                "QuadraticTriangle corrected": corrected_quadratic_triangle()}
+    for name, element in elements.items():
         worst = 0.0
         for _ in range(20):
             rs = rng.dirichlet(np.ones(3))[:2]
@@ -332,7 +439,7 @@ def test_field(rz: np.ndarray) -> np.ndarray:
     return np.stack([0.02 * r * bump * np.sin(z / 3.0), 0.3 * bump + 0.01 * np.cos(z / 5.0) * (3.6 - r)], axis=1) * MM
 
 
-def check_energies(force_n: float = 4.0) -> dict[str, float]:
+def check_energies(degree: int, force_n: float = 4.0) -> dict[str, float]:
     """Strain energy and residual of ours and FElupe's for the same displacement on the same mesh."""
     import dolfinx.fem
     import dolfinx.fem.petsc
@@ -342,14 +449,14 @@ def check_energies(force_n: float = 4.0) -> dict[str, float]:
     from suture_fem.geometry.mesh import create_mesh
     from suture_fem.physics.problem import build_physics
 
-    sc = scene()
+    sc = scene(degree)
     physics = build_physics(create_mesh(MPI.COMM_SELF, sc.geometry, sc.mesh), sc)
     gm = gmsh_mesh(sc)
     model = felupe_model(sc, gm)
     xy = physics.V.tabulate_dof_coordinates()[:, :2]
     dist, node = cKDTree(model.points_rz_m).query(xy)
-    assert dist.max() < 1e-12 and len(np.unique(node)) == len(node) == len(gm.points), "the same nodes"
     u = test_field(model.points_rz_m)
+    assert dist.max() < 1e-12 and len(np.unique(node)) == len(node) == len(u), "the same nodes"
     physics.u.x.array[:] = u[node].ravel()
     model.field[0].values[:] = u[:, ::-1]  # (u_z, u_r)
     ours = float(dolfinx.fem.assemble_scalar(physics.form("energy")))
@@ -370,9 +477,9 @@ def check_energies(force_n: float = 4.0) -> dict[str, float]:
             "residual_max_abs_n": float(np.max(np.abs(r_ours)))}
 
 
-#: Our side of the comparison: the same scene, USUM only (FElupe computes nothing else), no pictures.
-OURS_ARGS = ["run", "paper", *[a for o in SCENE_OVERRIDES for a in ("--set", o)],
-             "--set", 'output.quantities=["usum"]', "--no-pictures"]
+def ours_args(degree: int) -> list[str]:
+    """Our side of the comparison: the same scene, USUM only (FElupe computes nothing else), no pictures."""
+    return ["run", "paper", "--set", f"mesh.degree={degree}", "--set", 'output.quantities=["usum"]', "--no-pictures"]
 
 
 def _rusage(cmd: list[str], env: dict[str, str], cwd: Path) -> dict[str, Any]:
@@ -393,7 +500,7 @@ def _rusage(cmd: list[str], env: dict[str, str], cwd: Path) -> dict[str, Any]:
     return row
 
 
-def compare(code: Path, tmp: Path) -> tuple[list[dict[str, Any]], str]:
+def compare(code: Path, tmp: Path, degree: int = 1) -> tuple[list[dict[str, Any]], str]:
     """Ours (``code``: a tree or worktree of suture_fem) and FElupe, each in its own child process, side by side.
 
     Returns the two rows and a text with the table, the CPU ratio, the USUM differences and the checks.
@@ -403,17 +510,21 @@ def compare(code: Path, tmp: Path) -> tuple[list[dict[str, Any]], str]:
     env = dict(os.environ, PYTHONPATH=str(code), OMP_NUM_THREADS="1")
     py = [sys.executable, "-P"]
     check = tmp / "peer_check.json"
-    checked = _rusage([*py, str(Path(__file__).resolve()), "--check", "--out", str(check)], env, code)
-    ours = {"code": "suture_fem", **_rusage([*py, "-m", "suture_fem.cli", *OURS_ARGS, "--out", str(tmp / "ours")],
-                                            env, code)}
+    me = [*py, str(Path(__file__).resolve()), "--degree", str(degree)]
+    checked = _rusage([*me, "--check", "--out", str(check)], env, code)
+    ours = {"code": "suture_fem", **_rusage([*py, "-m", "suture_fem.cli", *ours_args(degree), "--out",
+                                             str(tmp / "ours")], env, code)}
     ours.update(_ours_results(tmp / "ours" / "results.json"))
-    fel = {"code": "FElupe", **_rusage([*py, str(Path(__file__).resolve()), "--child", "--out", str(tmp / "fel.json")],
-                                       env, code)}
+    fel = {"code": "FElupe", **_rusage([*me, "--child", "--out", str(tmp / "fel.json")], env, code)}
+    # our fixed cost, for the CPU beyond imports and meshing: the same imports and gmsh meshing, no solve
+    meshing = _rusage([*py, "-m", "suture_fem.cli", "mesh", "paper", "--set", f"mesh.degree={degree}", "--out",
+                       str(tmp / "mesh.msh")], env, code)
+    ours["imports_meshing_cpu_s"] = meshing["cpu_s"] if meshing["exit"] == 0 else None
     if (tmp / "fel.json").is_file():
         fel.update(json.loads((tmp / "fel.json").read_text()))
     rows = [ours, fel]
     checks = json.loads(check.read_text()) if check.is_file() else {"error": checked.get("error")}
-    return rows, _text(rows, checks)
+    return rows, _text(rows, checks, degree)
 
 
 def _ours_results(path: Path) -> dict[str, Any]:
@@ -428,7 +539,7 @@ def _ours_results(path: Path) -> dict[str, Any]:
             "linear_solver": r.get("linear_solver")}
 
 
-def _text(rows: list[dict[str, Any]], checks: dict[str, Any]) -> str:
+def _text(rows: list[dict[str, Any]], checks: dict[str, Any], degree: int) -> str:
     head = ("| code | CPU (s) | wall (s) | peak (MB) | Newton its | load steps | USUM at 1 / 2 / 3 / 4 N (mm) "
             "| free residual at 4 N (N) | load |\n" + "| --- " * 9 + "|\n")
     body = ""
@@ -444,8 +555,13 @@ def _text(rows: list[dict[str, Any]], checks: dict[str, Any]) -> str:
     if ours["exit"] == 0 and fel["exit"] == 0:
         lines.append(f"CPU FElupe / suture_fem = {fel['cpu_s'] / ours['cpu_s']:.2f} (whole child processes)")
         phases = fel.get("cpu_phases_s", {})
-        lines.append("FElupe CPU by phase (s): " + ", ".join(f"{k} {v:.2f}" for k, v in phases.items())
-                     + f"; suture_fem Newton (wall): {ours.get('newton_wall_s') or 0:.2f} s")
+        lines.append("FElupe CPU by phase (s): " + ", ".join(f"{k} {v:.2f}" for k, v in phases.items()))
+        if ours.get("imports_meshing_cpu_s") and phases:
+            mine = ours["cpu_s"] - ours["imports_meshing_cpu_s"]
+            theirs = phases.get("setup", 0.0) + phases.get("solve", 0.0)
+            lines.append(f"CPU beyond imports and meshing: suture_fem {mine:.2f} s (its total minus the CPU of "
+                         f"`suture-fem mesh`, {ours['imports_meshing_cpu_s']:.2f} s), FElupe {theirs:.2f} s "
+                         f"(setup + solve): FElupe / suture_fem = {theirs / mine:.2f}")
         diffs = [f"{a['force_n']:g} N: {b['usum_mm'] - a['usum_mm']:+.1e} mm ({b['usum_mm'] / a['usum_mm'] - 1:+.1e})"
                  for a, b in zip(ours.get("at_forces", []), fel.get("at_forces", []))]
         lines.append("USUM FElupe - suture_fem: " + "; ".join(diffs))
@@ -456,9 +572,10 @@ def _text(rows: list[dict[str, Any]], checks: dict[str, Any]) -> str:
                      f"{checks['energy_rel_diff']:.1e}; residual max |diff| {checks['residual_max_abs_diff_n']:.1e} N "
                      f"of max |r| {checks['residual_max_abs_n']:.1e} N")
         g = checks["gradient_fd_error"]
-        lines.append(f"FElupe shape-function gradient vs central differences, max |diff|: "
-                     f"Triangle {g['Triangle']:.1e}, QuadraticTriangle {g['QuadraticTriangle']:.1e} "
-                     "(miscoded: the comparison is at P1)")
+        lines.append("FElupe shape-function gradients vs central differences, max |diff|: "
+                     + ", ".join(f"{k} {v:.1e}" for k, v in g.items())
+                     + (" (FElupe's QuadraticTriangle is miscoded: P2 runs with the corrected element)" if degree == 2
+                        else " (FElupe's QuadraticTriangle is miscoded: this comparison is at P1)"))
     else:
         lines.append(f"checks failed: {checks}")
     return "\n".join(lines)
@@ -468,13 +585,19 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--child", action="store_true", help="solve the ramp in FElupe in this process")
     ap.add_argument("--check", action="store_true", help="energy, residual and element-gradient checks")
+    ap.add_argument("--degree", type=int, choices=(1, 2), default=1,
+                    help="P1, or P2 with the corrected quadratic triangle (see corrected_quadratic_triangle)")
+    ap.add_argument("--substep", type=float, default=1.0,
+                    help="FElupe's substep (N; the report forces are always substeps); --child only")
+    ap.add_argument("--save", default=None, help="--child: also write the state at 4 N to this .npz")
     ap.add_argument("--out", default=None, help="JSON output path")
     args = ap.parse_args()
     if args.child:
-        child(Path(args.out or ROOT / "benchmarks/out/peer_felupe_child.json"))
+        child(Path(args.out or ROOT / "benchmarks/out/peer_felupe_child.json"), args.degree, args.substep,
+              Path(args.save) if args.save else None)
         return
     if args.check:
-        report = {"gradient_fd_error": check_gradients(), **check_energies()}
+        report = {"gradient_fd_error": check_gradients(), **check_energies(args.degree)}
         print(json.dumps(report, indent=1))
         if args.out:
             Path(args.out).write_text(json.dumps(report, indent=1))

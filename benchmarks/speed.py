@@ -8,7 +8,7 @@ seconds per iteration (MUMPS, from the linear-solve time), assembly seconds, pea
 4 N and its error against the ledger's converged value (docs/ledger.md), and the load average.
 
     .venv/bin/python benchmarks/speed.py [--cases run-P2,run-P1,reproduce] [--before COMMIT]
-        [--out benchmarks/out/speed]
+        [--out benchmarks/out/speed] [--peer | --peer-only] [--peer-degree 1|2]
 
 Wall times swing with the load of the machine; compare the CPU seconds and the iteration counts.
 ``--peer`` also runs the paper scene at P1 in FElupe beside ours, each in its own child process, and
@@ -33,8 +33,12 @@ USUM_CONVERGED_MM = 4.698
 CASES = {
     "run-P2": ["run", "paper"],
     "run-P1": ["run", "paper", "--set", "mesh.degree=1"],
-    "reproduce": ["reproduce", "--no-pictures"],
+    "reproduce": ["reproduce", "--no-pictures", "--calibrate", "none"],  # --jobs: min(cores, 4) by default
+    "reproduce-calibrated": ["reproduce", "--no-pictures"],
 }
+#: The same work in the commit before issue 14, where the arguments differ (None: no such command there).
+#: Its `reproduce` had no calibration by default (issue 18 added --calibrate KEY) and ran P2 r0 for every cone count.
+BEFORE_ARGS = {"reproduce": ["reproduce", "--no-pictures"], "reproduce-calibrated": None}
 
 
 def before_commit(explicit: str | None) -> str:
@@ -96,7 +100,36 @@ def _results(out: Path) -> dict:
            "unknowns": [r.get("unknowns") for r in ramps]}
     if len(usum) == 1 and usum[0] is not None:
         row["usum_error_rel"] = usum[0] / USUM_CONVERGED_MM - 1.0
+    if len(ramps) > 1:
+        row.update(_reproduce(out, ramps))
     return row
+
+
+def _reproduce(out: Path, ramps: list[dict]) -> dict:
+    """reproduce: the ramps' CPU (comparison.json) and each USUM's error against the mesh-converged value.
+
+    The converged values are the references of studies/reproduce/rungs.py (benchmarks/reproduce_rungs.py),
+    measured on the uncalibrated scene: a calibrated run's USUM has its rung's estimated error instead.
+    """
+    sys.path.insert(0, str(ROOT))
+    from suture_fem.studies.reproduce.rungs import RUNGS
+
+    cmp = out / "comparison.json"
+    info = json.loads(cmp.read_text()).get("run", {}) if cmp.is_file() else {}
+    errors = {}
+    for r in ramps:
+        n, calibrated = r["scene"]["geometry"]["cones"], r["scene"]["materials"].get("tissue_scale", 1.0) != 1.0
+        for rec in r.get("at_forces", []):
+            f = round(rec["force_n"], 6)
+            ref = RUNGS[n].usum_reference_mm.get(f) if n in RUNGS else None
+            if calibrated:
+                errors[f"{n} cones {f:g} N"] = RUNGS[n].usum_error.get(f) if n in RUNGS else None
+            elif ref:
+                errors[f"{n} cones {f:g} N"] = rec["usum_mm"] / ref - 1.0
+    worst = max((abs(e) for e in errors.values() if e is not None), default=None)
+    return {"ramps_cpu_s": info.get("ramps_cpu_time_s"), "jobs": info.get("jobs", 1), "usum_errors_rel": errors,
+            "usum_error_rel_max": worst, "errors_are": "estimated (calibrated run: the rung's uncalibrated estimate)"
+            if any(r["scene"]["materials"].get("tissue_scale", 1.0) != 1.0 for r in ramps) else "measured"}
 
 
 def table(rows: list[dict]) -> str:
@@ -114,13 +147,13 @@ def table(rows: list[dict]) -> str:
     return head + body
 
 
-def peer(code: Path) -> tuple[list[dict], str]:
-    """Ours (``code``) and FElupe on the same P1 mesh of the paper scene, side by side (benchmarks/peer_felupe.py)."""
+def peer(code: Path, degree: int = 1) -> tuple[list[dict], str]:
+    """Ours (``code``) and FElupe on the same mesh of the paper scene, side by side (benchmarks/peer_felupe.py)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import peer_felupe
 
     with tempfile.TemporaryDirectory() as tmp:
-        return peer_felupe.compare(code, Path(tmp))
+        return peer_felupe.compare(code, Path(tmp), degree)
 
 
 def main() -> None:
@@ -134,9 +167,11 @@ def main() -> None:
     ap.add_argument("--peer", action="store_true",
                     help="also solve the paper scene at P1 in FElupe beside ours (benchmarks/peer_felupe.py)")
     ap.add_argument("--peer-only", action="store_true", help="only the FElupe comparison (no before/after cases)")
+    ap.add_argument("--peer-degree", type=int, choices=(1, 2), default=1,
+                    help="the peer comparison's degree (2: FElupe with its quadratic triangle corrected)")
     args = ap.parse_args()
     if args.peer_only:
-        rows, text = peer(worktree(args.now) if args.now else ROOT)
+        rows, text = peer(worktree(args.now) if args.now else ROOT, args.peer_degree)
         print(text)
         out = Path(args.out) if args.out != ap.get_default("out") else ROOT / "benchmarks/out/peer"
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -149,20 +184,27 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for case in args.cases.split(","):
             for name, code in codes.items():
-                row = {"case": case, "code": name, **run(code, CASES[case], Path(tmp) / f"{case}-{name}")}
+                args_ = BEFORE_ARGS.get(case, CASES[case]) if name == "before" else CASES[case]
+                if args_ is None:
+                    continue
+                row = {"case": case, "code": name, **run(code, args_, Path(tmp) / f"{case}-{name}")}
                 rows.append(row)
                 print(f"{case} {name}: {row['cpu_s']:.1f} s CPU, its {row.get('newton_its_per_ramp')}", flush=True)
             a, b = rows[-2], rows[-1]
-            if a.get("usum_mm") and b.get("usum_mm"):
+            if a["case"] == b["case"] and a.get("usum_mm") and b.get("usum_mm"):
                 row["usum_change_rel"] = [y / x - 1.0 for x, y in zip(a["usum_mm"], b["usum_mm"]) if x and y]
     text = table(rows)
     for r in rows:
         if "usum_change_rel" in r:
             text += f"\n{r['case']}: USUM now / before - 1 = {', '.join(f'{c:.1e}' for c in r['usum_change_rel'])}"
+        if r.get("usum_errors_rel"):
+            errs = ", ".join(f"{k} {100 * e:+.2f} %" for k, e in r["usum_errors_rel"].items() if e is not None)
+            text += (f"\n{r['case']} {r['code']}: the ramps {r['ramps_cpu_s'] or float('nan'):.1f} s CPU "
+                     f"({r['jobs']} job(s)); USUM error vs mesh-converged ({r['errors_are']}): {errs}")
     peer_rows = None
     if args.peer:
-        peer_rows, peer_text = peer(codes["now"])
-        text += "\n\nFElupe peer (paper scene, P1, USUM only, same mesh):\n\n" + peer_text
+        peer_rows, peer_text = peer(codes["now"], args.peer_degree)
+        text += f"\n\nFElupe peer (paper scene, P{args.peer_degree}, USUM only, same mesh):\n\n" + peer_text
     print(text)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)

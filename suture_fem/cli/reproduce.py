@@ -1,7 +1,9 @@
-"""``suture-fem reproduce [--out DIR]``: the paper's Tables 1 and 2 and Figures 2-4 in one command.
+"""``suture-fem reproduce [--out DIR] [--jobs N]``: the paper's Tables 1 and 2 and Figures 2-4 in one command.
 
 Argument parsing and printing only; the study is :mod:`suture_fem.studies.reproduce`. Exit code 0,
 or 3 when a cone count's ramp stopped before 4 N (its converged part is still compared).
+``suture-fem reproduce-ramp FOLDER/case.json`` is one cone count's ramp in its own process (what
+``--jobs`` runs; not meant to be typed).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from typing import Any
 from suture_fem.pipeline import load_scene
 from suture_fem.studies.reproduce import SCENE, reproduce
 from suture_fem.studies.reproduce.calibration import DEFAULT, parse_key
-from suture_fem.studies.reproduce.paper import LABELS
+from suture_fem.studies.reproduce.paper import CONES, LABELS
 from suture_fem.studies.reproduce.report import calibration_heading, pct
 from suture_fem.support.errors import SceneError
 
@@ -32,7 +34,41 @@ def register(subparsers: Any, scene_args: Any) -> None:
                         "scene as it is, every value a prediction)")
     p.add_argument("--max-evaluations", type=int, default=20, help="most calibration evaluations (default 20)")
     p.add_argument("--no-pictures", action="store_true", help="skip the field files and the figures")
+    p.add_argument("--jobs", default=None, metavar="N",
+                   help="cone counts solved at once, each in its own process (default: min(cores, cone counts); "
+                        "1: one after the other in this process, as under mpirun)")
+    p.add_argument("--mesh", choices=("rungs", "scene"), default="rungs",
+                   help="rungs (default): each cone count on its mesh rung, the cheapest with USUM within 1 %% of "
+                        "the mesh-converged value (docs/speed.md; a --set mesh.KEY still wins); scene: the "
+                        "scene's own mesh for every cone count")
     p.set_defaults(handler=reproduce_command)
+    p = subparsers.add_parser("reproduce-ramp", help="(internal) one cone count's ramp of `reproduce --jobs`")
+    p.add_argument("cases", nargs="+", help="the case.json files `reproduce` wrote, solved in turn")
+    p.set_defaults(handler=ramp_command)
+
+
+def ramp_command(args: argparse.Namespace, comm: Any) -> int:
+    """Cone counts' ramps from the case files ``reproduce --jobs`` wrote (exit 3: one stopped)."""
+    from suture_fem.studies.reproduce.jobs import run_case_files
+
+    return run_case_files([Path(c) for c in args.cases], comm)
+
+
+def _jobs(text: str | None, comm: Any) -> int:
+    """``--jobs``: an integer >= 1 (1 under mpirun); default min(cores, cone counts)."""
+    from suture_fem.studies.reproduce.jobs import default_jobs
+
+    if text is None:
+        return 1 if comm.size > 1 else default_jobs(len(CONES))
+    try:
+        jobs = int(text)
+    except ValueError:
+        jobs = 0
+    if jobs < 1:
+        raise SceneError(f"--jobs {text}: expected an integer >= 1")
+    if jobs > 1 and comm.size > 1:
+        raise SceneError(f"--jobs {text}: under mpirun the ramps run one after the other on all ranks; use 1")
+    return jobs
 
 
 def reproduce_command(args: argparse.Namespace, comm: Any) -> int:
@@ -41,13 +77,22 @@ def reproduce_command(args: argparse.Namespace, comm: Any) -> int:
     parse_key(args.calibrate, scene)  # a bad key or bounds: one line, exit 2, before any meshing
     if args.max_evaluations < 1:
         raise SceneError(f"--max-evaluations {args.max_evaluations}: expected an integer >= 1")
+    jobs = _jobs(args.jobs, comm)
+    keys = {o.partition("=")[0].strip() for o in args.overrides}
+    fixed = frozenset(k for k in keys if k.startswith("mesh.")) if args.mesh == "rungs" else None
+    # the rungs' error estimates were measured on the built-in scene: not shown for another geometry or material
+    estimates = args.scene == SCENE and not any(k.split(".")[0] in ("geometry", "mesh", "materials", "effects")
+                                                for k in keys)
     out = Path(args.out)
     cmp = reproduce(scene, out, comm, calibrate_key=args.calibrate, pictures=not args.no_pictures,
                     scene_name=Path(args.scene).stem if str(args.scene).endswith(".toml") else args.scene,
-                    max_evaluations=args.max_evaluations)
+                    max_evaluations=args.max_evaluations, fixed=fixed, jobs=jobs,
+                    estimates=estimates and args.mesh == "rungs")
     if comm.rank == 0:
         w = cmp["largest_prediction_error"]
-        print(f"suture-fem: {out / 'comparison.md'} ({cmp['run']['wall_time_s']:.0f} s)")
+        run = cmp["run"]
+        print(f"suture-fem: {out / 'comparison.md'} ({run['wall_time_s']:.1f} s wall, {run['cpu_time_s']:.1f} s CPU "
+              f"with {run['jobs']} job(s); the ramps {run['ramps_cpu_time_s']:.1f} s CPU)")
         print(f"  {calibration_heading(cmp['calibration']).replace('`', '')}")
         u = cmp["largest_usum_prediction_error"]
         if u:

@@ -1,9 +1,10 @@
 """`suture-fem reproduce` on a coarse mesh: the paper's trends, the comparison table, the pictures.
 
-One in-process run of the whole command (degree 1, coarsest mesh, coarse steps; materials.tissue_scale
-calibrated on the 4-cone, 1 N USUM, then the scene solved uncalibrated and calibrated), shared by the
-tests of this module; the calibration's status and interval are also tested on a closed-form model (no
-solve).
+One run of the whole command (each cone count on its mesh rung, degree 1; coarse steps; nothing
+calibrated; ``--jobs 2``: this process and one child process), shared by the tests of this module; one
+cone count solved again in this process shows that the child's results are the serial ones. The
+calibration's status and interval are tested on a closed-form model (no solve); the calibrated command
+in a long test.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import pytest
 
 from suture_fem.studies import reproduce as rp
 
-COARSE = ["mesh.degree=1", "mesh.refinement=0", "solver.initial_step=0.1", "solver.max_step=0.25"]
+COARSE = ["solver.initial_step=0.1", "solver.max_step=0.25"]  # the mesh: each cone count's rung
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +24,7 @@ def run(tmp_path_factory):
     from suture_fem.cli import main
 
     out = tmp_path_factory.mktemp("reproduce")
-    args = ["reproduce", "--out", str(out), "--calibrate", "none"]
+    args = ["reproduce", "--out", str(out), "--calibrate", "none", "--jobs", "2"]
     for o in COARSE:
         args += ["--set", o]
     assert main(args) == 0
@@ -175,6 +176,64 @@ def test_fields_match_the_reported_usum_and_pictures_are_drawn(run):
         img = image.imread(out / name)
         colours = np.unique((img[..., :3] * 255).astype(np.uint8).reshape(-1, 3), axis=0)
         assert img.shape[0] > 300 and img.shape[1] > 600 and len(colours) > 20, name
+
+
+def test_each_cone_count_is_solved_on_its_rung_and_usum_carries_its_estimated_error(run):
+    """The mesh of every ramp is its rung's (rungs.py); every USUM row shows the rung's estimated
+    discretisation error, within the 1 % the rungs were chosen for."""
+    from suture_fem.studies.reproduce.rungs import RUNGS
+
+    out, cmp, results = run
+    for n, res in results.items():
+        for key, value in RUNGS[n].values.items():
+            assert res["scene"]["mesh"][key.split(".", 1)[1]] == value, (n, key)
+    usum_rows = [r for r in cmp["rows"] if r["quantity"] == "usum_mm"]
+    for r in usum_rows:
+        est = r["usum_discretisation_error"]
+        assert est["rel"] == RUNGS[r["cones"]].usum_error[r["force_n"]] and abs(est["rel"]) < 0.01, r
+        assert est["rung"] == RUNGS[r["cones"]].label
+    md = (out / "comparison.md").read_text()
+    assert all(f"{r['ours']:.3f} mm (mesh {100 * r['usum_discretisation_error']['rel']:+.1f} %)" in md
+               for r in usum_rows)
+    assert cmp["run"]["jobs"] == 2 and cmp["run"]["cpu_time_s"] >= cmp["run"]["ramps_cpu_time_s"] > 0
+
+
+def test_the_child_process_gives_the_serial_results(run, tmp_path):
+    """--jobs 2 solved one group of cone counts in a child process: solving one of them again in this
+    process, as --jobs 1 does, gives the same USUM at every force to the last bit, the same iterations."""
+    from mpi4py import MPI
+
+    from suture_fem.pipeline import load_scene
+    from suture_fem.studies.reproduce.jobs import groups
+    from suture_fem.studies.reproduce.rungs import RUNGS
+    from suture_fem.studies.reproduce.solve import solve_cone_counts
+
+    _, _, results = run
+    child = groups({n: RUNGS[n].cpu_s for n in rp.CONES}, 2)[1]
+    n = min(child, key=lambda k: RUNGS[k].cpu_s)
+    scene = load_scene(rp.SCENE, COARSE)
+    serial = solve_cone_counts(scene, tmp_path, MPI.COMM_WORLD, fields=False, cones=(n,), jobs=1)["results"][n]
+    assert [r["usum_mm"] for r in serial["at_forces"]] == [r["usum_mm"] for r in results[n]["at_forces"]]
+    assert serial["newton_iterations"] == results[n]["newton_iterations"]
+
+
+def test_load_balancing_groups_cover_every_case_once():
+    from suture_fem.studies.reproduce.jobs import groups
+
+    costs = {1: 3.0, 2: 4.0, 3: 5.0, 4: 7.0}
+    assert groups(costs, 2) == [[4, 1], [3, 2]]  # 10 and 9: the longest first, each to the lightest group
+    assert groups(costs, 8) == [[4], [3], [2], [1]]
+    assert groups(costs, 1) == [[4, 3, 2, 1]]
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "two"])
+def test_a_bad_jobs_value_is_one_line_exit_2(tmp_path, capsys, value):
+    from suture_fem.cli import main
+
+    assert main(["reproduce", "--out", str(tmp_path / "out"), "--jobs", value, "--calibrate", "none"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
+    assert len(errors) == 1 and "--jobs" in errors[0] and ">= 1" in errors[0], errors
+    assert not (tmp_path / "out").exists()
 
 
 def test_nice_levels_have_a_round_step_and_cover_the_range():

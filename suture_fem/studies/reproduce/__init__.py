@@ -30,8 +30,10 @@ axial stress of the thread (about 20 MPa per newton), so SEQV is compared with t
 (not singular, unlike the peak at a sharp rim, though still mesh-dependent at the meshes used here)
 is reported next to it, and likewise for EPTOEQV.
 
-The modules, in the order the study runs: ``paper`` (the paper's values and the cases), ``calibration``
-(one parameter fitted to one value), ``solve`` (one ramp per cone count), ``compare`` (ours against
+The modules, in the order the study runs: ``paper`` (the paper's values and the cases), ``rungs`` (the
+mesh of each cone count and USUM's estimated discretisation error on it), ``calibration`` (one
+parameter fitted to one value), ``solve`` (one ramp per cone count), ``jobs`` (those ramps in parallel
+processes, ``--jobs``), ``compare`` (ours against
 the paper, the trends), ``report`` (comparison.md), ``figures`` (the pictures), ``study`` (the entry,
 :func:`reproduce`). The names below are the study's public face.
 """

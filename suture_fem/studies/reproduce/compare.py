@@ -58,18 +58,22 @@ def _role(p: Any, status: str | None) -> str:
 
 def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], scene: Scene,
                uncalibrated: dict[int, dict[str, Any]] | None = None,
-               bands: dict[tuple[int, float], float] | None = None) -> dict[str, Any]:
+               bands: dict[tuple[int, float], float] | None = None,
+               errors: dict[tuple[int, float], dict[str, Any]] | None = None) -> dict[str, Any]:
     """Every paper value side by side with ours, the trends, and the largest prediction error.
 
     ``results`` are the solved (calibrated, when a calibration reached its target) cone counts;
     ``uncalibrated`` the scene as it was, when it differs (then each row also has ``uncalibrated``
-    and its error); ``bands`` the 95 % half-widths of the calibrated USUM by (cones, force).
+    and its error); ``bands`` the 95 % half-widths of the calibrated USUM by (cones, force);
+    ``errors`` USUM's estimated relative discretisation error on its mesh rung by (cones, nominal
+    force): {"rel", "rung", "estimate"} (each USUM row then has ``usum_discretisation_error``).
     """
     rows = []
     for p in PAPER:
         value, alt = ours(results, p.cones, p.force_n, p.quantity)
         before = ours(uncalibrated, p.cones, p.force_n, p.quantity)[0] if uncalibrated is not None else value
         band = (bands or {}).get((p.cones, round(p.force_n, 6))) if p.quantity == "usum_mm" else None
+        est = (errors or {}).get((p.cones, round(p.force_n, 6))) if p.quantity == "usum_mm" else None
         rows.append({
             "source": p.source, "cones": p.cones, "force_n": p.force_n, "quantity": p.quantity,
             "paper": p.value, "paper_printed": p.printed, "ours": value,
@@ -77,6 +81,7 @@ def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], 
             "uncalibrated": before, "uncalibrated_rel_error": None if p.typo else rel(before, p.value),
             "ours_outside_rims": alt, "rel_error_outside_rims": None if p.typo else rel(alt, p.value),
             "role": _role(p, calibration.get("status")), "note": p.typo,
+            "usum_discretisation_error": est,
         })
     usum_ref = ours(results, TARGET.cones, TARGET.force_n, "usum_mm")[0]
     shape = []
@@ -97,6 +102,7 @@ def comparison(results: dict[int, dict[str, Any]], calibration: dict[str, Any], 
         "largest_prediction_error_outside_rims": worst_alt,
         "usum_relative_to_target": shape,
         "trends": trends(results),
+        "usum_discretisation_errors": [{"cones": n, "force_n": f, **e} for (n, f), e in sorted((errors or {}).items())],
         "calibration": calibration,
         "measures": {
             "usum_mm": "maximum of |u| over the displacement nodes of the whole model (mm)",

@@ -29,9 +29,11 @@ def comparison_markdown(cmp: dict[str, Any], info: dict[str, Any]) -> str:
     lines = [
         "# Mousavi et al., Tables 1 and 2: the paper against suture_fem",
         "",
-        f"Scene `{info['scene_name']}`: {info['geometry']}. Mesh: degree {info['mesh']['degree']}, refinement "
-        f"{info['mesh']['refinement']} ({info['dofs']}). One load ramp to 4 N per cone count. "
-        f"Wall time of the whole command: {info['wall_time_s']:.0f} s on {info['ranks']} MPI rank(s).",
+        f"Scene `{info['scene_name']}`: {info['geometry']}. Mesh per cone count: {_rungs(info)} ({info['dofs']}). "
+        f"One load ramp to 4 N per cone count. Wall time of the whole command: {info['wall_time_s']:.1f} s on "
+        f"{info['ranks']} MPI rank(s), {info.get('jobs', 1)} ramp(s) at once; "
+        f"CPU time {info.get('cpu_time_s', 0):.1f} s "
+        f"(this process and its ramps' processes; the ramps {info.get('ramps_cpu_time_s', 0):.1f} s).",
         "",
         "## Calibration",
         "",
@@ -44,6 +46,31 @@ def comparison_markdown(cmp: dict[str, Any], info: dict[str, Any]) -> str:
               "`fig2_usum_4_cones.png`, `fig3_usum_1_n.png`, `fig4_force_displacement.png`, `trends_vs_cones.png`, "
               "`trends_vs_force.png`. See docs/reproduction.md.", ""]
     return "\n".join(lines)
+
+
+def _rungs(info: dict[str, Any]) -> str:
+    rungs = info.get("rungs") or {}
+    if not rungs:
+        return f"degree {info['mesh']['degree']}, refinement {info['mesh']['refinement']}"
+    return "; ".join(f"{n} cone{'s' if n != '1' else ''} {label}" for n, label in rungs.items())
+
+
+def _discretisation(r: dict[str, Any]) -> str:
+    """USUM's estimated discretisation error on its rung, as shown after the value ("" where none)."""
+    e = r.get("usum_discretisation_error")
+    return "" if not e else f" (mesh {pct(e['rel']).replace(' %', '')} %)"
+
+
+def _discretisation_text(cmp: dict[str, Any]) -> str:
+    errs = cmp.get("usum_discretisation_errors") or []
+    if not errs:
+        return ""
+    hows = sorted({f"{e['cones']} cone{'s' if e['cones'] > 1 else ''} ({e['rung']}) {e['estimate']}" for e in errs})
+    worst = max(errs, key=lambda e: abs(e["rel"]))
+    return (" \"(mesh x %)\" after a USUM is its estimated relative discretisation error on the mesh rung it was "
+            "solved on (negative: below the mesh-converged value), measured on the uncalibrated scene "
+            f"(docs/speed.md); largest {pct(worst['rel'])} ({worst['cones']} cones, {worst['force_n']:g} N). "
+            "Estimated: " + "; ".join(hows) + ".")
 
 
 def calibration_heading(cal: dict[str, Any]) -> str:
@@ -69,7 +96,8 @@ def _values_section(cmp: dict[str, Any]) -> list[str]:
         "Error = (model - paper) / paper. The model's value is the measure the paper reports (USUM: maximum over "
         "the model; SEQV and EPTOEQV: maximum over the tissue, which includes the peak at the sharp cone rims); "
         "\"outside rims\" is " + cmp["measures"]["outside_rims"] + "."
-        + (" A calibrated USUM carries its linearised 95 % band (+-) where one was propagated." if two else ""),
+        + (" A calibrated USUM carries its linearised 95 % band (+-) where one was propagated." if two else "")
+        + _discretisation_text(cmp),
         "",
         head,
         "|" + " --- |" * (head.count("|") - 1),
@@ -77,7 +105,9 @@ def _values_section(cmp: dict[str, Any]) -> list[str]:
     for r in cmp["rows"]:
         q = r["quantity"]
         cal = fmt(q, r["ours"]) + (f" +- {r['band95']:.3f}" if r.get("band95") is not None else "")
-        first = f"{fmt(q, r['uncalibrated'])} | {pct(r['uncalibrated_rel_error'])} | " if two else ""
+        cal += _discretisation(r)
+        before = fmt(q, r["uncalibrated"]) + _discretisation(r)
+        first = f"{before} | {pct(r['uncalibrated_rel_error'])} | " if two else ""
         lines.append(
             f"| {r['source']} | {r['cones']} | {r['force_n']:g} N | {LABELS[q].split(' ')[0]} | {r['paper_printed']} "
             f"| {first}{cal} | {pct(r['rel_error'])} | {fmt(q, r['ours_outside_rims'])} | "

@@ -1,12 +1,18 @@
 """Solving the cone counts: one load ramp per cone count, the fields of every reported force kept.
 
-A ramp that stops keeps its converged part: its results.json (rewritten after every converged step)
-is read back, and the stop is recorded; the comparison then misses only the forces it did not reach.
+Each cone count is solved on its mesh rung (:mod:`suture_fem.studies.reproduce.rungs`), in this
+process one after the other (``jobs`` 1, or under mpirun) or in ``jobs`` processes at once, this one
+and ``jobs`` - 1 children (:mod:`suture_fem.studies.reproduce.jobs`, each a serial ``suture-fem
+reproduce-ramp``); both run
+:func:`solve_case`, so the results are the same. A ramp that stops keeps its converged part: its
+results.json (rewritten after every converged step) is read back, and the stop is recorded; the
+comparison then misses only the forces it did not reach.
 """
 
 from __future__ import annotations
 
 import logging
+import resource
 import time
 from pathlib import Path
 from typing import Any
@@ -14,6 +20,7 @@ from typing import Any
 from suture_fem.pipeline import check
 from suture_fem.scene import Scene
 from suture_fem.studies.reproduce.paper import CONES
+from suture_fem.studies.reproduce.rungs import RUNGS, rung_values
 from suture_fem.support.errors import SolveStopped
 from suture_fem.support.io import read_json
 from suture_fem.support.parallel import on_root
@@ -28,41 +35,100 @@ def with_values(scene: Scene, values: dict[str, Any]) -> Scene:
     return changed
 
 
-def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True,
-                      cones: tuple[int, ...] = CONES, on_state: Any = None) -> dict[str, Any]:
-    """One load ramp per cone count of ``cones``; returns {"results": {n: results}, "grids": {(n, F): grid}, ...}.
+def case_scene(scene: Scene, cones: int, fixed: frozenset[str] | None = frozenset()) -> Scene:
+    """The scene of one cone count on its mesh rung (the keys in ``fixed`` kept; ``fixed`` None: no rung)."""
+    rung = rung_values(RUNGS.get(cones), fixed) if fixed is not None else {}
+    return with_values(scene, {"geometry.cones": cones, "output.fields": False, **rung})
 
-    Grids (rank 0 only) are the solved states at every reported force, also written to
-    ``out/fields/conesN_FN.vtu``. A ramp that stops keeps its converged part.
+
+def field_path(fields_dir: Path, cones: int, force_n: float) -> Path:
+    """Where the state of ``cones`` at ``force_n`` is written (pyvista, ParaView)."""
+    return fields_dir / f"cones{cones}_{force_n:g}N.vtu"
+
+
+def solve_case(scene: Scene, folder: Path, comm: Any, fields_dir: Path | None = None,
+               band: tuple[str, float] | None = None) -> dict[str, Any]:
+    """One cone count's ramp into ``folder``; returns {"results", "stopped", "bands", "grids"}.
+
+    ``fields_dir``: the state at every reported force is also written there (:func:`field_path`) and
+    kept in "grids" (rank 0). ``band`` (key, 95 % half-interval of the key): USUM's linearised band at
+    every reported force, |dUSUM/dkey| (direct method, one factorisation of the Jacobian per state)
+    times the half-interval, in "bands" {force: half-width (mm)}.
     """
     from suture_fem import plots
     from suture_fem.pipeline import run_scene
 
-    results: dict[int, dict[str, Any]] = {}
-    grids: dict[tuple[int, float], Any] = {}
-    stopped: dict[int, str] = {}
-    for n in cones:
-        case = with_values(scene, {"geometry.cones": n, "output.fields": False})
-        folder = out / f"cones_{n}"
+    n = scene.geometry.cones
+    grids: dict[float, Any] = {}
+    bands: dict[float, float] = {}
+    made: list[Any] = []
 
-        def on_report(force_n: float, outputs: Any, n: int = n) -> None:
-            if on_state is not None:  # on_state(cones, force, outputs): e.g. the calibrated USUM's band
-                on_state(n, force_n, outputs)
-            if not fields:
-                return
-            grid = plots.field_grid(outputs)
-            if comm.rank == 0:
-                grids[(n, round(force_n, 6))] = grid
-            on_root(comm, "writing a field file", lambda: grid is None or plots.save_grid(
-                grid, out / "fields" / f"cones{n}_{force_n:g}N.vtu"))
+    def on_report(force_n: float, outputs: Any) -> None:
+        if band is not None:
+            from suture_fem.studies.calibrate.sensitivity import Sensitivity
 
-        t0 = time.perf_counter()
-        try:
-            results[n] = run_scene(case, folder, comm, on_report=on_report)
-        except SolveStopped as stop:
-            log.error("%d cone(s): %s", n, stop)
-            stopped[n] = str(stop)
-            results[n] = comm.bcast(read_json(folder / "results.json") if comm.rank == 0 else None, root=0)
-        log.info("%d cone(s): solved to %.3g N in %.0f s", n, results[n].get("force_reached_n", 0.0),
-                 time.perf_counter() - t0)
-    return {"results": results, "grids": grids, "stopped": stopped}
+            made[:] = made or [Sensitivity(outputs.physics)]
+            bands[round(force_n, 6)] = abs(float(made[0].at_state("usum_mm", [band[0]])[1][0])) * band[1]
+        if fields_dir is None:
+            return
+        grid = plots.field_grid(outputs)
+        if comm.rank == 0:
+            grids[round(force_n, 6)] = grid
+        on_root(comm, "writing a field file", lambda: grid is None or plots.save_grid(
+            grid, field_path(fields_dir, n, force_n)))
+
+    stopped = None
+    try:
+        results = run_scene(scene, folder, comm, on_report=on_report)
+    except SolveStopped as stop:
+        log.error("%d cone(s): %s", n, stop)
+        stopped = str(stop)
+        results = comm.bcast(read_json(folder / "results.json") if comm.rank == 0 else None, root=0)
+    if not isinstance(results, dict):
+        results = results.to_dict()
+    return {"results": results, "stopped": stopped, "bands": bands, "grids": grids}
+
+
+def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True, cones: tuple[int, ...] = CONES,
+                      band: tuple[str, float] | None = None, fixed: frozenset[str] | None = frozenset(),
+                      jobs: int = 1) -> dict[str, Any]:
+    """One load ramp per cone count of ``cones``, each on its rung; returns the results and what they cost.
+
+    {"results": {n: results}, "grids": {(n, F): grid}, "stopped": {n: why}, "bands": {(n, F): mm},
+    "cpu_time_s": CPU seconds of the ramps (summed over ranks, or over the child processes), "jobs"}.
+    Grids (rank 0 only) are the solved states at every reported force, also written to
+    ``out/fields/conesN_FN.vtu``. ``fixed``: the mesh keys the user set (kept), None for no rungs at all.
+    """
+    cases = {n: case_scene(scene, n, fixed) for n in cones}
+    fields_dir = out / "fields" if fields else None
+    t0 = time.perf_counter()
+    if jobs > 1 and comm.size == 1:
+        from suture_fem.studies.reproduce.jobs import solve_in_processes
+
+        costs = {n: getattr(RUNGS.get(n), "cpu_s", 0.0) or float(n) for n in cases}
+        solved, cpu = solve_in_processes(cases, out, comm, fields_dir, band, jobs, costs)
+    else:
+        cpu0 = _cpu_self()
+        solved = {}
+        for n, case in cases.items():
+            t1 = time.perf_counter()
+            solved[n] = solve_case(case, out / f"cones_{n}", comm, fields_dir, band)
+            log.info("%d cone(s): solved to %.3g N in %.1f s", n, solved[n]["results"].get("force_reached_n", 0.0),
+                     time.perf_counter() - t1)
+        cpu = comm.allreduce(_cpu_self() - cpu0)
+    log.info("cone counts %s: %.1f s CPU, %.1f s wall (%d job(s))", ",".join(map(str, cones)), cpu,
+             time.perf_counter() - t0, jobs)
+    return {
+        "results": {n: s["results"] for n, s in solved.items()},
+        "grids": {(n, f): g for n, s in solved.items() for f, g in s["grids"].items()},
+        "stopped": {n: s["stopped"] for n, s in solved.items() if s["stopped"]},
+        "bands": {(n, f): b for n, s in solved.items() for f, b in s["bands"].items()},
+        "cpu_time_s": cpu,
+        "jobs": jobs if comm.size == 1 else 1,
+        "rungs": {n: case.as_dict()["mesh"] for n, case in cases.items()},
+    }
+
+
+def _cpu_self() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime

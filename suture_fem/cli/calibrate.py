@@ -46,4 +46,9 @@ def calibrate_command(args: argparse.Namespace, comm: Any) -> int:
         for key, p in rec["parameters"].items():
             print(f"  {key} = {p['value']:.6g}  95 % [{p['ci95'][0]:.6g}, {p['ci95'][1]:.6g}]  ({p['sensitivity']})")
         print(f"  {rec['identifiability']['verdict']}")
+        for c in rec.get("curve", []):  # the predictions at the largest force, each with its 95 % band
+            scale, unit = (1e-3, " kPa") if c["unit"] == "Pa" else (1.0, " mm" if c["unit"] == "mm" else "")
+            cones = f"{c['cones']} cones, " if c["cones"] is not None else ""
+            print(f"  predicted {c['quantity']} at {cones}{c['force_n'][-1]:g} N: {c['model'][-1] * scale:.4g}{unit} "
+                  f"+- {c['band95'][-1] * scale:.2g}{unit} (95 %)")
     return 0

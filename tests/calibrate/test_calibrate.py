@@ -79,6 +79,29 @@ def test_direct_sensitivity_equals_central_difference(case):
         assert abs(dy[0, j] - fd[0]) <= 1e-5 * abs(fd[0]), (key, dy[0, j], fd[0])
 
 
+@pytest.mark.long  # about 20 s CPU: five ramps and the stress measures' expressions
+def test_stress_measure_sensitivity_equals_difference_of_two_solves(case):
+    """The tissue's critical-distance averages: the direct method's du/dp through a central difference of the
+    output map (no solve) equals a central difference of the measure over two full solves.
+
+    Measured (force scale, SEQV / EPTOEQV): the full-solve difference with h = 1e-3, 1e-4, 1e-5 differs by
+    3.5e-8 / 2.3e-7, 7.1e-6 / 2.2e-6, 1e-9 / 1.7e-9 relative (the 1e-4 pair is the odd one out, a solver
+    or grid-search effect of one of its two solves); the output map's own step 1e-3 to 1e-6 changes it by < 3e-7."""
+    from suture_fem.studies.calibrate.data import EPTOEQV_CD, SEQV_CD
+
+    keys = ["materials.tissue_scale", "loading.force_scale"]
+    base = {"materials.tissue_scale": 0.8, "loading.force_scale": 1.0}
+    names = [SEQV_CD, EPTOEQV_CD]
+    at = case.solve_many(base, [0.5], names, keys)
+    for j, key in enumerate(keys):
+        h = 1e-3 * base[key]
+        plus, minus = (case.solve_many({**base, key: base[key] + s * h}, [0.5], names, []) for s in (1, -1))
+        for name in names:
+            fd = (plus[name][0][0] - minus[name][0][0]) / (2 * h)
+            print(name, key, at[name][1][0, j], fd)
+            assert abs(at[name][1][0, j] - fd) <= 1e-5 * abs(fd), (name, key, at[name][1][0, j], fd)
+
+
 def _points(truth, noise, sd):
     return [Point(f, float(v + e), sd, 0.001, THREAD_END, None, f"{f} N") for f, v, e in zip(FORCES, truth, noise)]
 
@@ -94,30 +117,33 @@ def test_synthetic_truth_inside_interval(scene, truth):
 
 
 def test_fitted_curve_and_usum_carry_their_linearised_band(scene, case, truth, tmp_path):
-    """Propagation: the thread end's curve and USUM at the fitted scale, each with the band
-    q * sd * |dy/dp|; the value equals a solve at the fitted scale, the slope a central difference."""
-    from suture_fem.studies.calibrate.data import USUM
+    """Propagation: the thread end's curve, USUM and the tissue's stress measures at the fitted scale, each with
+    the band q * sd * |dy/dp|; the value equals a solve at the fitted scale, the slope a central difference."""
+    from suture_fem.studies.calibrate.data import EPTOEQV_CD, SEQV_CD, USUM
 
     noise = np.random.default_rng(3).normal(0.0, 0.01, len(FORCES))
     keys = [parse_fit("materials.tissue_scale", scene)]
     rec = calibrate(scene, _points(truth, noise, 0.01), keys, MPI.COMM_WORLD, out=tmp_path / "out")
     p = rec["parameters"]["materials.tissue_scale"]
     curves = {c["quantity"]: c for c in rec["curve"]}
-    assert set(curves) == {THREAD_END, USUM}
+    assert set(curves) == {THREAD_END, USUM, SEQV_CD, EPTOEQV_CD}
     end = curves[THREAD_END]
     for f, y in zip(FORCES, rec["predictions_mm"]):
-        assert end["model_mm"][end["force_n"].index(f)] == pytest.approx(y, rel=1e-9)
+        assert end["model"][end["force_n"].index(f)] == pytest.approx(y, rel=1e-9)
     usum, s = curves[USUM], p["value"]
     i = usum["force_n"].index(FORCES[-1])
     values = {"loading.force_scale": 1.0}
     # a 1 % step: each solve is exact to about 1e-6 relative (Newton's tolerances, a different ramp), so a
     # smaller step would difference solver noise; the step's own error is O(1e-4)
-    mid, plus, minus = (case.solve({**values, "materials.tissue_scale": v}, [FORCES[-1]], USUM, [])[0][0]
+    names = [USUM, SEQV_CD, EPTOEQV_CD]
+    mid, plus, minus = (case.solve_many({**values, "materials.tissue_scale": v}, [FORCES[-1]], names, [])
                         for v in (s, s * (1 + 1e-2), s * (1 - 1e-2)))
-    assert usum["model_mm"][i] == pytest.approx(mid, rel=1e-5)  # the same state reached by another ramp
-    slope = (plus - minus) / (2e-2 * s)
-    assert usum["band95_mm"][i] == pytest.approx(1.959964 * p["sd"] * abs(slope), rel=2e-3)
-    assert all(h > 0 for c in rec["curve"] for h in c["band95_mm"])
+    for name in names:  # USUM and the tissue's stress measures alike
+        c = curves[name]
+        assert c["model"][i] == pytest.approx(mid[name][0][0], rel=1e-5)  # the same state reached by another ramp
+        slope = (plus[name][0][0] - minus[name][0][0]) / (2e-2 * s)
+        assert c["band95"][i] == pytest.approx(1.959964 * p["sd"] * abs(slope), rel=2e-3), name
+    assert all(h > 0 for c in rec["curve"] for h in c["band95"])
     md = (tmp_path / "out" / "calibration.md").read_text()
     assert "| 1 | 0.5 N | USUM |" not in md and "| - | 0.5 N | USUM |" in md and "95 % band" in md
 

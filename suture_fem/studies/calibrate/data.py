@@ -20,6 +20,12 @@ from suture_fem.support.errors import SceneError
 #: The model quantity compared with each kind of data.
 THREAD_END = "thread_end_displacement_mm"
 USUM = "usum_mm"
+#: The tissue's converged stress measures (results.json's ``regions.tissue`` critical-distance averages): predicted
+#: with their bands at the fitted parameters, never fitted (no data of them).
+SEQV_CD = "seqv_cd_pa"
+EPTOEQV_CD = "eptoeqv_cd"
+#: Each predicted quantity's unit.
+UNITS = {THREAD_END: "mm", USUM: "mm", SEQV_CD: "Pa", EPTOEQV_CD: "1"}
 
 
 class DataError(SceneError):

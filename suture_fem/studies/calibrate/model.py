@@ -64,15 +64,20 @@ class Case:
         self.scene, self.comm, self.cost = scene, comm, cost
         tagged = meshmod.create_mesh(comm, scene.geometry, scene.mesh)
         self.physics = build_physics(tagged, scene)
-        self.sensitivity = Sensitivity(self.physics)
+        self.sensitivity = Sensitivity(self.physics, scene.output)
         cost.meshes += 1
 
     def solve(self, values: dict[str, float], forces: list[float], quantity: str,
               direct: list[str]) -> tuple[np.ndarray, np.ndarray]:
-        """Predictions at ``forces`` (mm) and their derivatives with respect to the ``direct`` keys.
+        """Predictions at ``forces`` and their derivatives with respect to the ``direct`` keys.
 
         Returns (y, dy) with y[i] at forces[i] and dy[i, j] = dy_i / d(direct[j]).
         """
+        return self.solve_many(values, forces, [quantity], direct)[quantity]
+
+    def solve_many(self, values: dict[str, float], forces: list[float], quantities: list[str],
+                   direct: list[str]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """:meth:`solve` of several quantities along one ramp: quantity -> (y, dy)."""
         physics = self.physics
         for key, value in values.items():
             physics.set_parameter(key, value)
@@ -81,20 +86,23 @@ class Case:
         if physics.rigid_displacement is not None:
             physics.rigid_displacement.value = 0.0
         scene = with_values(self.scene, {"loading.force_n": max(forces), "loading.report_forces_n": sorted(forces)})
-        at: dict[float, tuple[float, np.ndarray]] = {}
+        at: dict[float, tuple[list[float], list[np.ndarray]]] = {}
 
         def on_converged(force_n: float, report: bool, time_s: float | None = None) -> None:
             if report:
-                at[round(force_n, 9)] = self.sensitivity.at_state(quantity, direct)
+                at[round(force_n, 9)] = self.sensitivity.at_state_many(quantities, direct)
                 self.cost.sensitivity_factorisations += 1 if direct else 0
 
         result = ramp(physics, scene, on_converged)
         self.cost.ramps += 1
         self.cost.newton_iterations += result.newton_iterations
         self.cost.load_steps += len(result.steps)
-        y = np.array([at[round(f, 9)][0] for f in forces])
-        dy = np.array([at[round(f, 9)][1] for f in forces]).reshape(len(forces), len(direct))
-        return y, dy
+        out = {}
+        for q, quantity in enumerate(quantities):
+            y = np.array([at[round(f, 9)][0][q] for f in forces])
+            dy = np.array([at[round(f, 9)][1][q] for f in forces]).reshape(len(forces), len(direct))
+            out[quantity] = (y, dy)
+        return out
 
 
 @dataclass
@@ -157,12 +165,43 @@ class Model:
                  ", ".join(f"{v:.4f}" for v in y))
         return y, J
 
+    def quantities_at(self, theta: np.ndarray, cones: int | None, forces: list[float],
+                      quantities: list[str]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Several quantities of one cone count at ``forces``, and their Jacobians: quantity -> (y, J).
+
+        One ramp (three for each geometric key: its central difference) for all of them: the
+        predictions at the fitted parameters (:func:`~suture_fem.studies.calibrate.study.fitted_curve`).
+        """
+        values = dict(zip((k.key for k in self.keys), map(float, theta)))
+        direct = [k.key for k in self.keys if not k.geometric]
+        geometric = {k.key: values[k.key] for k in self.keys if k.geometric}
+        constants = {k: v for k, v in values.items() if k not in geometric}
+        solved = self._case(cones, geometric).solve_many(constants, forces, quantities, direct)
+        out = {}
+        for quantity, (y, dy) in solved.items():
+            J = np.zeros((len(forces), len(self.keys)))
+            for j, key in enumerate(self.keys):
+                if key.key in direct:
+                    J[:, j] = dy[:, direct.index(key.key)]
+            out[quantity] = (y, J)
+        for j, key in enumerate(self.keys):
+            if key.geometric:
+                diffs = self._difference(cones, geometric, constants, key.key, forces, quantities)
+                for quantity in quantities:
+                    out[quantity][1][:, j] = diffs[quantity]
+        return out
+
     def _difference(self, cones: int | None, geometric: dict[str, float], constants: dict[str, float], key: str,
-                    forces: list[float], quantity: str) -> np.ndarray:
-        """Central finite difference of the predictions with respect to a geometric key (two remeshed solves)."""
+                    forces: list[float], quantity: str | list[str]) -> Any:
+        """Central finite difference of the predictions with respect to a geometric key (two remeshed solves).
+
+        One quantity: its array; a list: quantity -> array.
+        """
         h = FD_STEP * geometric[key]
+        names = [quantity] if isinstance(quantity, str) else quantity
         sides = []
         for sign in (1, -1):
             case = self._case(cones, {**geometric, key: geometric[key] + sign * h})
-            sides.append(case.solve(constants, forces, quantity, [])[0])
-        return (sides[0] - sides[1]) / (2 * h)
+            sides.append(case.solve_many(constants, forces, names, []))
+        diffs = {q: (sides[0][q][0] - sides[1][q][0]) / (2 * h) for q in names}
+        return diffs[quantity] if isinstance(quantity, str) else diffs

@@ -41,18 +41,31 @@ def markdown(rec: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+#: Names of the predicted quantities in the report.
+NAMES = {"thread_end_displacement_mm": "thread end displacement", "usum_mm": "USUM",
+         "seqv_cd_pa": "tissue SEQV, critical-distance average",
+         "eptoeqv_cd": "tissue EPTOEQV, critical-distance average"}
+
+
+def _with_unit(value: float, unit: str) -> str:
+    if unit == "Pa":
+        return f"{value / 1e3:.4g} kPa"
+    return f"{value:.4f} mm" if unit == "mm" else f"{value:.4g}"
+
+
 def _propagated(rec: dict[str, Any]) -> list[str]:
-    """The predictions at the fitted parameters with their linearised 95 % bands (the fitted curve, USUM)."""
+    """The predictions at the fitted parameters with their linearised 95 % bands (curve, USUM, stress measures)."""
     if not rec.get("curve"):
         return []
     lines = ["", "Predictions at the fitted parameters, each with its linearised 95 % band (the parameters' "
-             "covariance through the sensitivities):", "", "| cones | force | quantity | model | 95 % band |",
-             "| --- | --- | --- | --- | --- |"]
+             "covariance through the sensitivities: direct method for the displacements; for the stress measures "
+             "the direct method's du/dp through a central difference of the output map, no extra solve):", "",
+             "| cones | force | quantity | model | 95 % band |", "| --- | --- | --- | --- | --- |"]
     for c in rec["curve"]:
-        name = "USUM" if c["quantity"] == "usum_mm" else "thread end displacement"
-        for f, y, h in zip(c["force_n"], c["model_mm"], c["band95_mm"]):
-            lines.append(f"| {c['cones'] if c['cones'] is not None else '-'} | {f:.4g} N | {name} | {y:.4f} mm | "
-                         f"+- {h:.4f} mm |")
+        name, unit = NAMES.get(c["quantity"], c["quantity"]), c["unit"]
+        for f, y, h in zip(c["force_n"], c["model"], c["band95"]):
+            lines.append(f"| {c['cones'] if c['cones'] is not None else '-'} | {f:.4g} N | {name} | "
+                         f"{_with_unit(y, unit)} | +- {_with_unit(h, unit)} |")
     return lines
 
 
@@ -66,7 +79,7 @@ def picture(rec: dict[str, Any], path: Path) -> Path:
     fig, ax = plt.subplots(figsize=(6, 4.5))
     quantity = rec["data"][0]["quantity"]
     for curve in (c for c in rec.get("curve", []) if c["quantity"] == quantity):
-        f, y, h = (np.array(curve[k]) for k in ("force_n", "model_mm", "band95_mm"))
+        f, y, h = (np.array(curve[k]) for k in ("force_n", "model", "band95"))
         label = f"model ({curve['cones']} cones)" if curve["cones"] is not None else "model"
         line, = ax.plot(f, y, label=label)
         ax.fill_between(f, y - h, y + h, color=line.get_color(), alpha=0.25)

@@ -9,7 +9,9 @@ returns (the load stepping owns and destroys the solver), so A is assembled once
 converged state and factorised once (MUMPS LU) for all parameters of that state.
 
 From du/dp: the thread end's displacement is a linear functional of u (the same form, evaluated at
-du/dp); USUM is max |u_i| over the nodes, whose derivative at its node i* is u_i* . du_i*/dp / |u_i*|.
+du/dp); USUM is max |u_i| over the nodes, whose derivative at its node i* is u_i* . du_i*/dp / |u_i*|; the
+tissue's stress measures (:data:`SEQV_CD`, :data:`EPTOEQV_CD`) by a central difference of the output
+map along du/dp, no extra solve (:mod:`suture_fem.studies.calibrate.measures`).
 """
 
 from __future__ import annotations
@@ -23,17 +25,24 @@ from petsc4py import PETSc
 
 from suture_fem.geometry.regions import MM
 from suture_fem.physics.problem import Physics
+from suture_fem.scene.schema import OutputSection
 from suture_fem.solve.reduction import Reduction
-from suture_fem.studies.calibrate.data import THREAD_END, USUM
+from suture_fem.studies.calibrate.data import EPTOEQV_CD, SEQV_CD, THREAD_END, USUM
+from suture_fem.studies.calibrate.measures import TissueMeasures
 from suture_fem.support import compat
 
 
 class Sensitivity:
     """The predictions of one physics and their derivatives with respect to its Constant parameters."""
 
-    def __init__(self, physics: Physics):
-        """The reduction, the Jacobian's matrices and the thread-end functional at a displacement change."""
-        self.physics = physics
+    def __init__(self, physics: Physics, output: OutputSection | None = None):
+        """The reduction, the Jacobian's matrices and the thread-end functional at a displacement change.
+
+        ``output`` (the scene's output section) is needed for the tissue's stress measures only; their
+        expressions are compiled at the first use.
+        """
+        self.physics, self.output = physics, output
+        self._measures: TissueMeasures | None = None
         self.reduction = Reduction(physics)
         self.J_form = physics.form("jacobian")
         self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
@@ -62,20 +71,45 @@ class Sensitivity:
         mine = best[1] == self.physics.comm.rank
         return best[0] / MM, values[i].copy() if mine else np.zeros(2), i if mine else -1
 
+    def measures(self) -> TissueMeasures:
+        """The tissue's stress measures of this physics (built at the first call)."""
+        if self._measures is None:
+            if self.output is None:
+                raise ValueError("the tissue's stress measures need the scene's output section")
+            self._measures = TissueMeasures(self.physics, self.output)
+        return self._measures
+
     def value(self, quantity: str) -> float:
-        """The prediction (mm) at the current state: :data:`THREAD_END` or :data:`USUM`."""
+        """The prediction at the current state: :data:`THREAD_END` or :data:`USUM` (mm), a stress measure."""
+        if quantity in (SEQV_CD, EPTOEQV_CD):
+            return self.measures().maximum(quantity)[0]
         return self.thread_end_mm() if quantity == THREAD_END else self._usum_node()[0]
 
     def at_state(self, quantity: str, keys: list[str]) -> tuple[float, np.ndarray]:
-        """The prediction (mm) and its derivative with respect to every key, at the current (converged) state."""
-        value = self.value(quantity)
+        """The prediction and its derivative with respect to every key, at the current (converged) state."""
+        values, derivatives = self.at_state_many([quantity], keys)
+        return values[0], derivatives[0]
+
+    def at_state_many(self, quantities: list[str], keys: list[str]) -> tuple[list[float], list[np.ndarray]]:
+        """:meth:`at_state` of several quantities at once: one factorisation of the Jacobian for them all."""
+        values, centres = [], {}
+        for quantity in quantities:
+            if quantity in (SEQV_CD, EPTOEQV_CD):
+                value, centres[quantity] = self.measures().maximum(quantity)
+            else:
+                value = self.value(quantity)
+            values.append(value)
+        out = [np.zeros(len(keys)) for _ in quantities]
         if not keys:
-            return value, np.zeros(0)
+            return values, out
         changes = self.state_derivatives(keys)
-        out = np.zeros(len(keys))
-        for j, change in enumerate(changes):
-            out[j] = self._change_of(quantity, change)
-        return value, out
+        for j, (key, change) in enumerate(zip(keys, changes)):
+            for i, quantity in enumerate(quantities):
+                if quantity in centres:
+                    out[i][j] = self.measures().derivative(quantity, centres[quantity], key, change)
+                else:
+                    out[i][j] = self._change_of(quantity, change)
+        return values, out
 
     def _change_of(self, quantity: str, change: np.ndarray) -> float:
         """The prediction's derivative (mm per unit parameter) given du/dp as the state's local array."""

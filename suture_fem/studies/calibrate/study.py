@@ -11,7 +11,7 @@ import numpy as np
 from scipy import stats
 
 from suture_fem.scene import Scene
-from suture_fem.studies.calibrate.data import USUM, Point
+from suture_fem.studies.calibrate.data import EPTOEQV_CD, SEQV_CD, UNITS, USUM, Point
 from suture_fem.studies.calibrate.fit import fit
 from suture_fem.studies.calibrate.keys import FitKey
 from suture_fem.studies.calibrate.model import Model
@@ -59,25 +59,26 @@ def calibrate(scene: Scene, points: list[Point], keys: list[FitKey], comm: Any, 
 
 
 def fitted_curve(model: Model, record: dict[str, Any]) -> list[dict[str, Any]]:
-    """The fitted model over each group's forces, with its linearised 95 % band (one ramp per group and quantity).
+    """The fitted model over each group's forces, with its linearised 95 % band (one ramp per group).
 
-    The data's own quantity (the curve the data are compared with) and, when that is the thread end's
-    displacement, USUM too: both propagated from the parameters' covariance through the sensitivities
-    at the fitted values, half-width = q sqrt(g^T Cov g) with g = dy/dtheta and q the normal 97.5 % quantile.
+    The data's own quantity (the curve the data are compared with), USUM and the tissue's converged
+    stress measures (the critical-distance averages :data:`SEQV_CD`, :data:`EPTOEQV_CD`; not when the
+    scene's ``output.critical_distance_mm`` is 0), all propagated from the parameters' covariance through
+    the sensitivities at the fitted values: half-width = q sqrt(g^T Cov g), g = dy/dtheta, q the normal
+    97.5 % quantile.
     """
     theta = np.array([record["parameters"][k.key]["value"] for k in model.keys])
     cov = np.array(record["covariance"])
     quantile = stats.norm.ppf(0.975)
+    stress = [SEQV_CD, EPTOEQV_CD] if model.scene.output.critical_distance_mm > 0 else []
     out = []
     for cones, idx in model.groups().items():
         f_max = max(model.points[i].force_n for i in idx)
         forces = sorted({round(f_max * a, 9) for a in CURVE_FRACTIONS} | {model.points[i].force_n for i in idx})
-        quantities = dict.fromkeys([model.points[idx[0]].quantity, USUM])
-        for quantity in quantities:
-            sub = Model(model.scene, [Point(f, 0.0, None, 1.0, quantity, cones) for f in forces], model.keys,
-                        model.comm, cost=model.cost, _cases=model._cases)
-            y, J = sub.predict(theta)
+        quantities = list(dict.fromkeys([model.points[idx[0]].quantity, USUM, *stress]))
+        for quantity, (y, J) in model.quantities_at(theta, cones, forces, quantities).items():
             half = quantile * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, cov, J), 0.0))
-            out.append({"cones": cones, "quantity": quantity, "force_n": forces,
-                        "model_mm": y.tolist(), "band95_mm": half.tolist()})
+            out.append({"cones": cones, "quantity": quantity, "unit": UNITS[quantity], "force_n": forces,
+                        "model": y.tolist(), "band95": half.tolist(),
+                        "sensitivity": [dict(zip((k.key for k in model.keys), row)) for row in J.tolist()]})
     return out

@@ -12,7 +12,7 @@ seconds per iteration (MUMPS, from the linear-solve time), assembly seconds, pea
 
 Wall times swing with the load of the machine; compare the CPU seconds and the iteration counts.
 ``--peer`` also runs the paper scene at P1 in FElupe beside ours, each in its own child process, and
-prints the CPU ratio and the USUM difference (benchmarks/peer_felupe.py, docs/peer.md; needs the optional
+prints the CPU ratio and the USUM difference (benchmarks/peer_compare.py, docs/peer.md; needs the optional
 extra ``peer``); ``--peer-only`` runs only that comparison (no before/after cases, no worktree).
 """
 
@@ -148,12 +148,12 @@ def table(rows: list[dict]) -> str:
 
 
 def peer(code: Path, degree: int = 1) -> tuple[list[dict], str]:
-    """Ours (``code``) and FElupe on the same mesh of the paper scene, side by side (benchmarks/peer_felupe.py)."""
+    """Ours (``code``) and FElupe on the same mesh of the paper scene, side by side (benchmarks/peer_compare.py)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    import peer_felupe
+    import peer_compare
 
     with tempfile.TemporaryDirectory() as tmp:
-        return peer_felupe.compare(code, Path(tmp), degree)
+        return peer_compare.compare(code, Path(tmp), degree)
 
 
 def main() -> None:
@@ -165,7 +165,7 @@ def main() -> None:
                     "uncommitted changes of others would enter the measurement")
     ap.add_argument("--out", default=str(ROOT / "benchmarks/out/speed"), help="output path without suffix")
     ap.add_argument("--peer", action="store_true",
-                    help="also solve the paper scene at P1 in FElupe beside ours (benchmarks/peer_felupe.py)")
+                    help="also solve the paper scene in FElupe beside ours (benchmarks/peer_compare.py)")
     ap.add_argument("--peer-only", action="store_true", help="only the FElupe comparison (no before/after cases)")
     ap.add_argument("--peer-degree", type=int, choices=(1, 2), default=1,
                     help="the peer comparison's degree (2: FElupe with its quadratic triangle corrected)")

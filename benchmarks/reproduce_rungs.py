@@ -136,7 +136,8 @@ def main() -> None:
     lines += ["", "| cones | force | reference USUM (mm) | how | uncertainty |", "| --- | --- | ---: | --- | ---: |"]
     for n, ref in refs.items():
         for f, v in ref.items():
-            unc = "-" if v["uncertainty_rel"] is None else f"{100 * v['uncertainty_rel']:.2f} %"
+            unc = (f"{100 * fallback:.2f} % (the largest found at another cone count)" if v["uncertainty_rel"] is None
+                   else f"{100 * v['uncertainty_rel']:.2f} %")
             lines.append(f"| {n} | {f:g} N | {v['usum_mm']:.4f} | {v['how']} | {unc} |")
     lines += ["", "Chosen (cheapest with |error| + reference uncertainty <= 1 % at 1-4 N):"]
     for n, r in sorted(chosen.items()):

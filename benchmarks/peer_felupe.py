@@ -1,29 +1,35 @@
-"""The paper scene in FElupe (a peer code), on our P1 mesh with our energies, supports, load and tolerance.
+"""The paper scene in FElupe (a peer code), on our mesh with our energies, supports, load and tolerance.
 
 FElupe (PyPI ``felupe``, with ``tensortrax`` for energies written as functions of C: the optional extra
 ``peer``; never a test dependency) solves the same discrete problem as ``suture-fem run paper --set
-mesh.degree=1``:
+mesh.degree=1`` (or 2):
 
 * Mesh: the same gmsh model (suture_fem's own mesher, :func:`gmsh_mesh`), linear triangles, in metres.
   FElupe's axisymmetric field takes x_1 = axial, x_2 = radial, so the points are (z, r) and each
-  triangle's node order is flipped to keep it counter-clockwise.
+  triangle's node order is flipped to keep it counter-clockwise. P2: FElupe adds the edge midpoints
+  (our P2 dofs on these straight-sided triangles) and uses :func:`corrected_quadratic_triangle`.
 * Quadrature: FElupe's 3-point triangle rule (degree 2), the same points and weights as basix's
-  degree-2 rule that our P1 forms use (``physics.forms.quadrature_degree``).
+  degree-2 rule that our P1 forms use (``physics.forms.quadrature_degree``); at P2 basix's degree-4
+  rule itself, as a FElupe ``Scheme``.
 * Energies (:func:`energy_functions`): Yeoh, Gent and St Venant-Kirchhoff exactly as
   ``physics/materials.py`` writes them (ANSYS forms, ``materials.tissue_scale`` on every tissue
   constant), written as tensortrax functions of C = F^T F; FElupe differentiates them (hyper-dual
   numbers) for the stress and the tangent. One ``SolidBody`` per material region, all linked to one field.
 * Supports: u = 0 on the outer epidermis surface, u_r = 0 on the axis (``physics/constraints.py``).
 * Load: a dead axial force F on the thread's end face, as the consistent nodal forces of the traction
-  F / (pi r_t^2) weighted by 2 pi r (exact for P1 edges), a ``PointLoad``.
+  F / (pi r_t^2) weighted by 2 pi r (exact on linear and quadratic edges), a ``PointLoad``.
+* Admissible states: FElupe's line search rejects det F <= 0; :meth:`Model.inside_gent_limit` adds
+  I1bar - 3 < Jm in the Gent epidermis, as our domain guard has it (without it FElupe's P2 ramp
+  converged past the limit).
 * Stepping: a ``Step`` with substeps at 0 N and at the report forces 1, 2, 3, 4 N, FElupe's
   ``LinesearchPlugin`` (admissible J > 0 and sufficient decrease of the residual) and ``CutbackPlugin``
   (halve a failed substep, grow by 2 after a converged one), at most 25 Newton iterations per solve
   (``solver.max_iterations``). The 0 N substep converges in its one iteration (counted); without it the
   plugin cannot subdivide the first substep. Newton iterations count every iteration, failed attempts too.
 * Newton tolerance (:func:`residual_check`): the free residual's 2-norm at most 1e-9 of the applied
-  force (N), the bound that every converged state of ours meets (``solve/newton.py``: the relative,
-  absolute and increment tests all end at or below it), floored at ``solver.atol`` (1e-10 N).
+  force (N), floored at ``solver.atol`` (1e-10 N). Ours (``solve/newton.py``) stops on a relative 1e-9,
+  an absolute max(1e-10 N, round-off floor), or an increment below 1e-7 of the state with the residual
+  at most 1e-9 of the force; at 4 N both codes end near 1e-10 N (the table of docs/peer.md).
 * Linear solver: FElupe's default, scipy's ``spsolve`` (SuperLU) on the free dofs.
 
 ``--child`` runs one solve in this process and writes a JSON with its results and the process CPU time

@@ -75,6 +75,6 @@ def test_the_comparison_carries_the_bars_and_both_columns(ladders):
     assert row["fall_error"] == pytest.approx(0.4 * (abs(0.4 - 42 / 104) * 2) / (42 / 104))
     assert next(r for r in cmp["rows"] if r["measure"] == "seqv_cd_pa")["error_rel"] == {2: None, 4: None}
     text = "\n".join(stress_markdown(cmp))
-    assert "**uncalibrated**" in text and "**as solved**" in text
+    assert "**uncalibrated**" in text and "**calibrated**" in text
     assert "48 kPa +- 19 %" in text and "(n.m.)" in text
     assert "seqv_cd_pa: 60 +- 1 %" in cmp["uncalibrated"]["answer"]

@@ -52,6 +52,7 @@ from suture_fem.scene.schema import SolverSection
 from suture_fem.solve.guard import DomainGuard, Violation
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
+from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale
 from suture_fem.support import compat
 from suture_fem.support.errors import Interrupted
 
@@ -60,28 +61,6 @@ log = logging.getLogger("suture_fem")
 #: Residual entry returned for a state outside the admissible domain (finite, so every PETSc
 #: line search can compare it, and larger than any physical residual).
 OUTSIDE_DOMAIN_RESIDUAL = 1e30
-#: Newton-increment stopping test (SNES ``stol``): a solve stops when its last increment is below this
-#: fraction of the state. With Newton converging at any rate below 1/2 the remaining error is below the
-#: last increment, so the answer is exact to about 1e-7 relative, ten times inside the 1e-6 the answers
-#: must keep (issue 14). Measured on the paper scene: P2 63 -> 55 Newton iterations per ramp, USUM
-#: changed by 8e-13 (benchmarks/speed.py).
-INCREMENT_RTOL = 1e-7
-#: A solve stopped by the increment test whose residual is above this fraction of the applied force (N)
-#: continues with the residual tests only, so the reaction still balances the pull to 1e-9 of the force
-#: (a short damped step of the line search, not convergence, can also make the increment small). At
-#: 1e-7 a 1-cone P1 run at 2 N ended at a free residual of 1.3e-7 N on Debian 13, above the 1e-8 of the
-#: force the integration tests hold every run to.
-INCREMENT_STOP_RESIDUAL = 1e-9
-#: An energy line search that fails below this fraction of the applied force (N) in residual has met the
-#: rounding of the energy, not a divergence: the solve goes on with full Newton steps from where it is.
-FULL_STEP_RESIDUAL = 1e-6
-#: A solve with the energy line search whose residual is still above STALL_FRACTION of its start after
-#: STALL_ITERATIONS iterations is given up (and the step cut) instead of running to ``solver.max_iterations``:
-#: the energy may fall while the residual does not (measured: the paper scene with 0.04 mm fillets at P1,
-#: first step 0.4 N, residual 0.30 -> 0.82 -> 0.49 after 10 iterations, 0.076 after 25, failed; the
-#: converging first steps measured were below 0.75 of their start after 10 iterations).
-STALL_ITERATIONS = 10
-STALL_FRACTION = 0.9
 #: Direct solvers in the order they are tried ("petsc", serial only, last).
 FALLBACK_ORDER = ("mumps", "superlu_dist", "petsc")
 #: The reason :meth:`NewtonSolver.solve` returns when PETSc raised an error (a failed factorisation
@@ -120,10 +99,12 @@ class NewtonSolver:
         self.floor = 0.0  # round-off floor of the residual at the start of the last solve that assembled A (N)
         self.outside_domain = 0
         self.last_violation: Violation | None = None
-        self._fnorm0, self._full_steps = 0.0, False  # for :meth:`_converged`
         self.options = solver_options
         self.linear_solver = solver_options.linear_solver
         self.line_search = str(solver_options.petsc_options.get("snes_linesearch_type", "bt"))
+        self.stops = StopTests(lambda: self.objective_form is not None and self.line_search == "bt",
+                               lambda: force_scale(self.physics),
+                               float(solver_options.petsc_options.get("snes_divergence_tolerance", 1e4)))
         self.snes = PETSc.SNES().create(problem.comm)
         self.prefix = f"suture_{id(self)}_"
         self._configure()
@@ -156,7 +137,7 @@ class NewtonSolver:
         self.snes.setFunction(self._residual, self.b)
         if self.objective_form is not None:
             self.snes.setObjective(self._objective)
-            self.snes.setConvergenceTest(self._converged)
+            self.snes.setConvergenceTest(self.stops.converged)
         self.snes.setJacobian(self._jacobian, self.A)
         self.snes.setFromOptions()
         self.snes.getKSP().setFromOptions()
@@ -263,7 +244,7 @@ class NewtonSolver:
         try:
             self.snes.solve(None, self.x)
             its = self.snes.getIterationNumber()
-            if self._stopped_short():  # go on with full steps and the residual tests only
+            if self.stops.stopped_short(self.snes):  # go on with full steps and the residual tests only
                 its += self._finish_with_full_steps()
         except PETSc.Error as exc:  # a factorisation error raised instead of reported
             if Interrupted.pending is not None:  # a signal inside a PETSc callback: not a solver failure
@@ -280,84 +261,17 @@ class NewtonSolver:
         finite = self.physics.comm.allreduce(finite, op=MPI.LAND)
         return reason > 0 and finite, its, _reason_name(reason)
 
-    def _converged(self, snes: Any, its: int, norms: tuple[float, float, float]) -> int:
-        """PETSc's default convergence test, plus a hand-over to full steps near the solution (energy line search).
-
-        The tests and their order are those of PETSc's SNESConvergedDefault (absolute and relative
-        residual, function-evaluation count, increment, divergence); petsc4py 3.18 cannot call the default
-        from a Python test, so they are restated here. Added: once the residual is below
-        FULL_STEP_RESIDUAL x force the solve returns CONVERGED_ITS, and :meth:`solve` goes on with full
-        Newton steps (:meth:`_finish_with_full_steps`), instead of an energy line search that can no
-        longer see the decrease (it then spent one more Jacobian and failed).
-        """
-        xnorm, ynorm, fnorm = norms
-        rtol, atol, stol, _ = snes.getTolerances()
-        reasons = PETSc.SNES.ConvergedReason
-        if its == 0:
-            self._fnorm0 = fnorm
-        if not np.isfinite(fnorm):
-            return reasons.DIVERGED_FNORM_NAN
-        if fnorm < atol:
-            return reasons.CONVERGED_FNORM_ABS
-        if snes.getFunctionEvaluations() >= snes.getMaxFunctionEvaluations() >= 0:
-            return reasons.DIVERGED_FUNCTION_COUNT
-        if its == 0:
-            return reasons.CONVERGED_ITERATING
-        divtol = float(self.options.petsc_options.get("snes_divergence_tolerance", 1e4))
-        if fnorm <= rtol * self._fnorm0:
-            return reasons.CONVERGED_FNORM_RELATIVE
-        if ynorm < stol * xnorm:
-            return reasons.CONVERGED_SNORM_RELATIVE
-        if divtol > 0 and fnorm > divtol * self._fnorm0:
-            return reasons.DIVERGED_DTOL
-        if self._line_search_on_energy and fnorm < FULL_STEP_RESIDUAL * self._force_scale():
-            return reasons.CONVERGED_ITS
-        if its >= STALL_ITERATIONS and fnorm > STALL_FRACTION * self._fnorm0:
-            log.info("Newton makes no progress: the residual is still %.0f %% of its start after %d iterations; "
-                     "the step is given up", 100 * fnorm / self._fnorm0, its)
-            return reasons.DIVERGED_MAX_IT
-        return reasons.CONVERGED_ITERATING
-
-    @property
-    def _line_search_on_energy(self) -> bool:
-        """True while the backtracking line search decides on the energy (not full steps, not the residual)."""
-        return self.objective_form is not None and self.line_search == "bt" and not self._full_steps
-
-    def _force_scale(self) -> float:
-        """The applied force (N), the scale of the residual tests (1 N without a pull)."""
-        force = getattr(self.physics, "applied_force_n", None)
-        scale = abs(force()) if callable(force) else 0.0
-        return scale if scale > 0 else 1.0
-
-    def _stopped_short(self) -> bool:
-        """True when the solve stopped before its residual tests were met, close enough to go on with full steps.
-
-        Two ways: the increment test stopped it at a residual above INCREMENT_STOP_RESIDUAL x force (a
-        short damped step also makes the increment small), or the energy line search failed at a residual
-        below FULL_STEP_RESIDUAL x force. The second is round-off, not divergence: near the solution the
-        energy decrease of a Newton step (about |R|^2 / stiffness) falls below the rounding of the energy
-        (measured: the paper scene at P1 stalled at |R| = 6.5e-8 N at 3 N and failed the step).
-        """
-        reason, reasons = self.snes.getConvergedReason(), PETSc.SNES.ConvergedReason
-        fnorm = self.snes.getFunctionNorm()
-        if reason == reasons.CONVERGED_SNORM_RELATIVE:
-            return fnorm > INCREMENT_STOP_RESIDUAL * self._force_scale()
-        if reason == reasons.CONVERGED_ITS:  # the hand-over of :meth:`_converged`
-            return True
-        return (self._line_search_on_energy and reason == reasons.DIVERGED_LINE_SEARCH
-                and fnorm < FULL_STEP_RESIDUAL * self._force_scale())
-
     def _finish_with_full_steps(self) -> int:
         """Continue from the current iterate with full Newton steps and the residual tests only; its spent."""
         opts, key = PETSc.Options(), self.prefix + "snes_linesearch_type"
         opts[key] = "basic"
         self.snes.setFromOptions()
         self.snes.setTolerances(stol=1e-14)
-        self._full_steps = True
+        self.stops.full_steps = True
         try:
             self.snes.solve(None, self.x)
         finally:
-            self._full_steps = False
+            self.stops.full_steps = False
             opts[key] = self.line_search
             self.snes.setFromOptions()
             self.snes.setTolerances(stol=self.stol)

@@ -44,7 +44,10 @@ def test_a_quantity_with_a_tolerance_settles_only_when_the_richardson_estimate_a
     # an oscillation settles when its last change is within 2 % and shrinks (uncertainty: that change)
     shrinking = richardson([1.0, 1.05, 1.045], tolerance=0.02)
     assert shrinking.verdict == "settled" and shrinking.limit == 1.045 and shrinking.correction == pytest.approx(0.005)
-    assert richardson([1.0, 1.005, 0.99], tolerance=0.02).verdict == "oscillating"  # it grows
+    # a growing oscillation settles only while both changes are within 2 % (uncertainty: the larger)
+    wobble = richardson([1.0, 1.005, 0.99], tolerance=0.02)
+    assert wobble.verdict == "settled" and wobble.correction == pytest.approx(0.015)
+    assert richardson([1.0, 1.005, 0.97], tolerance=0.02).verdict == "oscillating"  # last change 3.6 %
     assert richardson([1.0, 1.05, 1.02], tolerance=0.02).verdict == "oscillating"  # last change 3 %
 
 

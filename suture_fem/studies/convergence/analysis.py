@@ -137,7 +137,7 @@ def _settled(estimates: dict[str, Any], tolerance: float) -> str:
     orders = ", ".join(f"{k}: {e['order']:.2f}" for k, e in estimates.items()
                        if e["verdict"] == "settled" and e["order"] is not None)
     how = (f"its Richardson correction within it too, observed order {orders}" if orders else
-           "oscillating with a shrinking amplitude, the last change taken as its uncertainty")
+           "oscillating within it, the last change or the larger of the two taken as its uncertainty")
     return f"settled: the change between the two finest rungs is below {100 * tolerance:g} % ({how})"
 
 

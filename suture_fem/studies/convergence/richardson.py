@@ -62,9 +62,10 @@ def richardson(values: Sequence[float], ratio: float = REFINEMENT_RATIO, settled
     measures). The ladder is also "settled" when the change between its two finest rungs is within
     it and the Richardson estimate agrees: a converging ladder whose correction (extrapolated limit
     minus finest value) is within the tolerance too (limit and correction as extrapolated), or an
-    oscillation whose amplitude shrinks (the finest value, the last change its uncertainty). A last
-    change within the tolerance that does not shrink is not settled: nothing says the next
-    refinement would stay within it.
+    oscillation whose amplitude shrinks (the finest value, the last change its uncertainty) or whose
+    two changes are both within the tolerance (the finest value, the larger change its
+    uncertainty). Monotone changes within the tolerance that do not shrink are not settled: nothing
+    says the drift stops.
     """
     if len(values) < 3:
         return Estimate(None, None, "too few rungs")
@@ -76,6 +77,8 @@ def richardson(values: Sequence[float], ratio: float = REFINEMENT_RATIO, settled
     if d1 * d2 <= 0.0:
         if within and abs(d2) <= abs(d1):
             return Estimate(None, q2, "settled", abs(d2))
+        if max(abs(d1), abs(d2)) <= tolerance * abs(q2):  # a bounded wobble within the tolerance
+            return Estimate(None, q2, "settled", max(abs(d1), abs(d2)))
         return Estimate(None, None, "oscillating")
     order = math.log(d1 / d2) / math.log(ratio)
     if order <= max(min_order, 0.0):

@@ -6,7 +6,7 @@ For 1-4 cones of the built-in scene `paper_reproduction` (uncalibrated), runs `s
 * 1 and 4 cones: degree 1 at refinements 0, 1, 2 and degree 2 at 0 (and 1 where solved);
 * 2 and 3 cones: degree 1 at refinements 0, 1 and degree 2 at 0;
 * 1 cone with `mesh.size_suture_mm = 0.1` (the issue's candidate): degree 1 at refinements 0, 1; with
-  0.075 mm: degree 1 at refinement 0.
+  0.075 mm: degree 1 at refinement 0 (and the same at 4 cones).
 
 The reference (the mesh-converged USUM) at each cone count and force is the Richardson limit of the
 degree-1 ladder r0-r2 (observed order, `suture_fem.studies.convergence.richardson`) where that ladder
@@ -45,6 +45,7 @@ LADDERS = {
     "cones_1": (1, ["--degrees", "1,2", "--refinements", "0,1,2", "--cap", "2=1"]),
     "cones_1_suture0.1": (1, ["--set", "mesh.size_suture_mm=0.1", "--degrees", "1", "--refinements", "0,1"]),
     "cones_1_suture0.075": (1, ["--set", "mesh.size_suture_mm=0.075", "--degrees", "1", "--refinements", "0"]),
+    "cones_4_suture0.075": (4, ["--set", "mesh.size_suture_mm=0.075", "--degrees", "1", "--refinements", "0"]),
     "cones_2": (2, ["--degrees", "1,2", "--refinements", "0,1", "--cap", "2=0"]),
     "cones_3": (3, ["--degrees", "1,2", "--refinements", "0,1", "--cap", "2=0"]),
 }

@@ -77,4 +77,4 @@ def test_the_comparison_carries_the_bars_and_both_columns(ladders):
     text = "\n".join(stress_markdown(cmp))
     assert "**uncalibrated**" in text and "**calibrated**" in text
     assert "48 kPa +- 19 %" in text and "(n.m.)" in text
-    assert "seqv_cd_pa: 60 +- 1 %" in cmp["uncalibrated"]["answer"]
+    assert "seqv_cd_pa: 60 +- 0.76 %" in cmp["uncalibrated"]["answer"]

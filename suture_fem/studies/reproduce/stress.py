@@ -91,7 +91,7 @@ def _paper_falls(table: dict[int, dict[str, float]]) -> dict[str, float]:
 def _fall_text(measure: str, fall: float | None, bar: float | None) -> str:
     if fall is None:
         return f"{measure}: -"
-    return f"{measure}: {100 * fall:.0f}" + ("" if bar is None else f" +- {100 * bar:.0f}") + " %"
+    return f"{measure}: {100 * fall:.0f}" + ("" if bar is None else f" +- {100 * bar:.2g}") + " %"
 
 
 def answer(falls: dict[str, Any]) -> str:
@@ -157,7 +157,7 @@ def _value(v: float | None, kind: str, bar: float | None | str = "") -> str:
 def _fall_cell(fall: float | None, bar: float | None | str) -> str:
     if fall is None:
         return "-"
-    return f"{100 * fall:.0f} %" + ("" if bar == "" else " (n.m.)" if bar is None else f" +- {100 * bar:.0f}")
+    return f"{100 * fall:.0f} %" + ("" if bar == "" else " (n.m.)" if bar is None else f" +- {100 * bar:.2g}")
 
 
 def ratio_sensitivity(scene: Any, comm: Any, fillets_mm: Sequence[float], distances_mm: Sequence[float],

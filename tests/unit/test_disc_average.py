@@ -81,3 +81,22 @@ def test_the_maximum_over_positions_finds_the_analytic_maximum():
     assert found.value == pytest.approx(exact, rel=1e-4)
     # A is flat near its top: the per-cell fit's O(h^2) error moves the maximiser by a fraction of an element
     assert found.at == pytest.approx([r0, z1], abs=0.5 / n)
+
+
+def test_the_search_ranks_its_candidates_by_their_disc_average_not_their_point_value():
+    # a narrow spike of height 10 at (0.6, 0.2) (largest point values, small average) and a broad bump of
+    # height 2 at (1.2, 0.7): the largest average is the bump's, which three starts taken by point value
+    # near the spike alone would miss
+    from suture_fem.outputs.disc import STARTS, top_points
+
+    def f(r, z):
+        spike = 10 * np.exp(-((r - 0.6) ** 2 + (z - 0.2) ** 2) / 0.02**2)
+        return spike + 2 * np.exp(-((r - 1.2) ** 2 + (z - 0.7) ** 2) / 0.3**2)
+
+    field = _field(_mesh(40), f)
+    values, xy = field.coeffs[:, 0], field.centre  # one value per cell is enough to rank points here
+    spike_first = top_points(MPI.COMM_WORLD, values, xy, RADIUS / 10, count=STARTS)
+    assert np.all(np.hypot(*(spike_first - [0.6, 0.2]).T) < 0.1)  # the three largest values: all at the spike
+    near_spike = max_disc_average(field, spike_first, RADIUS)
+    found = max_disc_average(field, top_points(MPI.COMM_WORLD, values, xy, RADIUS), RADIUS)
+    assert found.at == pytest.approx([1.2, 0.7], abs=0.05) and found.value > near_spike.value

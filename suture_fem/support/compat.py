@@ -7,6 +7,7 @@ trixie's dolfinx 0.9 stays a change to this module only.
 
 from __future__ import annotations
 
+import hashlib
 import inspect
 from typing import Any
 
@@ -164,8 +165,21 @@ def cell_locator(mesh: Any, cells: np.ndarray) -> Any:
 
     affine = _affine_triangles(mesh, cells)
 
+    found: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # the same points again (a search's fixed grid)
+
     def locate(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         points = np.ascontiguousarray(points, dtype=np.float64)
+        key = hashlib.blake2b(points.tobytes(), digest_size=16).digest()
+        if key not in found:
+            if len(found) >= _LOCATED_KEPT:
+                found.pop(next(iter(found)))
+            idx, cells_hit = _locate(points)
+            idx.setflags(write=False)
+            cells_hit.setflags(write=False)
+            found[key] = (idx, cells_hit)
+        return found[key]
+
+    def _locate(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         candidates = collide(tree, points)
         if affine is None:
             hits = geo.compute_colliding_cells(mesh, candidates, points)
@@ -178,6 +192,10 @@ def cell_locator(mesh: Any, cells: np.ndarray) -> Any:
     return locate
 
 
+#: Point sets whose cells a locator keeps (the critical-distance search asks for the same disc points
+#: again at every report force and for every quantity: on the paper scene 360 calls, 109 distinct sets,
+#: 4.1 million points located for 1.1 million distinct ones).
+_LOCATED_KEPT = 256
 #: A point closer than this to a cell (m, as dolfinx's own collision test) counts as inside it.
 _COLLISION_DISTANCE = 1e-10
 

@@ -244,8 +244,11 @@ class NewtonSolver:
         try:
             self.snes.solve(None, self.x)
             its = self.snes.getIterationNumber()
-            if self.stops.stopped_short(self.snes):  # go on with full steps and the residual tests only
-                its += self._finish_with_full_steps()
+            for _ in range(2):  # go on with the residual tests only (a line-search continuation may hand over)
+                mode = self.stops.finish(self.snes)
+                if mode is None:
+                    break
+                its += self._finish(full_steps=mode == "full steps")
         except PETSc.Error as exc:  # a factorisation error raised instead of reported
             if Interrupted.pending is not None:  # a signal inside a PETSc callback: not a solver failure
                 raise Interrupted.pending from None
@@ -261,19 +264,21 @@ class NewtonSolver:
         finite = self.physics.comm.allreduce(finite, op=MPI.LAND)
         return reason > 0 and finite, its, _reason_name(reason)
 
-    def _finish_with_full_steps(self) -> int:
-        """Continue from the current iterate with full Newton steps and the residual tests only; its spent."""
+    def _finish(self, full_steps: bool) -> int:
+        """Continue from the current iterate with the residual tests only (and full Newton steps); its spent."""
         opts, key = PETSc.Options(), self.prefix + "snes_linesearch_type"
-        opts[key] = "basic"
-        self.snes.setFromOptions()
+        if full_steps:
+            opts[key] = "basic"
+            self.snes.setFromOptions()
         self.snes.setTolerances(stol=1e-14)
-        self.stops.full_steps = True
+        self.stops.full_steps = full_steps
         try:
             self.snes.solve(None, self.x)
         finally:
             self.stops.full_steps = False
-            opts[key] = self.line_search
-            self.snes.setFromOptions()
+            if full_steps:
+                opts[key] = self.line_search
+                self.snes.setFromOptions()
             self.snes.setTolerances(stol=self.stol)
         return self.snes.getIterationNumber()
 

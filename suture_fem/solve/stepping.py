@@ -18,8 +18,10 @@
   histories) from the line through the last two states, or from the last converged state: whichever is
   closest to balance under the trial's loads (:meth:`~suture_fem.solve.newton.NewtonSolver.merit`: the
   potential where the line search uses it, else the residual norm; inadmissible states never win).
-  Measured on the paper scene at P1, 0-4 N: the line through two states 36 Newton iterations, with the
-  tangent 33, choosing by merit (the quadratic overshoots early in the ramp) 30; P2 61 -> 50.
+  Measured on the paper scene at P1, 0-4 N, Newton iterations per ramp (failed attempts included): the
+  line through two states 45 (37 once :mod:`~suture_fem.solve.stopping` finished round-off stalls with
+  full steps), the quadratic with the tangent, first admissible, 41 (it overshoots early in the ramp),
+  chosen by merit 33, with the energy line search's hand-over 30; P2 63 -> 50 (benchmarks/newton_counts.py).
 * Physical limit. A converged state is checked against ``solver.gent_limit_fraction``
   (:meth:`~suture_fem.solve.guard.DomainGuard.limit_reached`) and rejected like a failed step there.
 * Fallbacks before a cutback. A failed solve first switches the linear solver, if the factorisation

@@ -2,8 +2,8 @@
 
 :class:`NewtonSolver <suture_fem.solve.newton.NewtonSolver>` installs :meth:`StopTests.converged` as
 SNES's convergence test where the line search decides on the energy (degree 1, static, plain
-displacement), and asks :meth:`StopTests.stopped_short` after every solve whether to go on from the
-current iterate with full Newton steps and the residual tests only.
+displacement), and asks after every solve whether to go on from the
+current iterate with the residual tests only (:meth:`StopTests.finish`).
 """
 
 from __future__ import annotations
@@ -91,30 +91,33 @@ class StopTests:
             return reasons.DIVERGED_DTOL
         if self.energy_line_search() and fnorm < FULL_STEP_RESIDUAL * self.force():
             return reasons.CONVERGED_ITS
-        if its >= STALL_ITERATIONS and fnorm > STALL_FRACTION * self.fnorm0:
+        if self.energy_line_search() and its >= STALL_ITERATIONS and fnorm > STALL_FRACTION * self.fnorm0:
             log.info("Newton makes no progress: the residual is still %.0f %% of its start after %d iterations; "
                      "the step is given up", 100 * fnorm / self.fnorm0, its)
             return reasons.DIVERGED_MAX_IT
         return reasons.CONVERGED_ITERATING
 
-    def stopped_short(self, snes: Any) -> bool:
-        """True when the solve stopped before its residual tests were met, close enough to go on with full steps.
+    def finish(self, snes: Any) -> str | None:
+        """How a solve that stopped before its residual tests were met goes on: "full steps", "line search" or None.
 
-        Three ways: the increment test stopped it at a residual above INCREMENT_STOP_RESIDUAL x force (a
-        short damped step also makes the increment small); :meth:`converged` handed over; or the energy
-        line search failed at a residual below FULL_STEP_RESIDUAL x force. The last two are round-off,
-        not divergence: near the solution the energy decrease of a Newton step (about |R|^2 / stiffness)
-        falls below the rounding of the energy (measured: the paper scene at P1 stalled at |R| = 6.5e-8 N
-        at 3 N and failed the step).
+        Three ways to stop short: the increment test stopped it at a residual above
+        INCREMENT_STOP_RESIDUAL x force (a short damped step also makes the increment small);
+        :meth:`converged` handed over; or the energy line search failed at a residual below
+        FULL_STEP_RESIDUAL x force. The last two are round-off, not divergence: near the solution the
+        energy decrease of a Newton step (about |R|^2 / stiffness) falls below the rounding of the energy
+        (measured: the paper scene at P1 stalled at |R| = 6.5e-8 N at 3 N and failed the step). Below
+        FULL_STEP_RESIDUAL x force the solve goes on with full Newton steps; an increment stop above it
+        (possibly far from balance) goes on with its own line search.
         """
         reason, reasons = snes.getConvergedReason(), PETSc.SNES.ConvergedReason
-        fnorm = snes.getFunctionNorm()
-        if reason == reasons.CONVERGED_SNORM_RELATIVE:
-            return fnorm > INCREMENT_STOP_RESIDUAL * self.force()
+        fnorm, force = snes.getFunctionNorm(), self.force()
+        if reason == reasons.CONVERGED_SNORM_RELATIVE and fnorm > INCREMENT_STOP_RESIDUAL * force:
+            return "full steps" if fnorm < FULL_STEP_RESIDUAL * force else "line search"
         if reason == reasons.CONVERGED_ITS:
-            return True
-        return (self.energy_line_search() and reason == reasons.DIVERGED_LINE_SEARCH
-                and fnorm < FULL_STEP_RESIDUAL * self.force())
+            return "full steps"
+        if self.energy_line_search() and reason == reasons.DIVERGED_LINE_SEARCH and fnorm < FULL_STEP_RESIDUAL * force:
+            return "full steps"
+        return None
 
 
 def force_scale(problem: Any) -> float:

@@ -79,9 +79,8 @@ def solve_in_processes(cases: dict[int, Scene], out: Path, comm: Any, fields_dir
             solved[n] = solve_case(cases[n], out / f"cones_{n}", comm, fields_dir, band)
         cpu = _cpu_self() - cpu0
         while running:
-            pid, status, usage = os.wait4(-1, 0)
-            if pid not in running:
-                continue  # not one of ours
+            pid = next(iter(running))  # our children in turn (never another child's status)
+            _, status, usage = os.wait4(pid, 0)
             group, proc, logfile, t0 = running.pop(pid)
             logfile.close()
             proc.returncode = os.waitstatus_to_exitcode(status)

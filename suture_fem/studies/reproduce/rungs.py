@@ -2,9 +2,10 @@
 
 Chosen from measured ladders (``benchmarks/reproduce_rungs.py``: ``suture-fem convergence
 paper_reproduction --set geometry.cones=N --degrees 1,2 --refinements 0,1,2 --cap 2=1 --forces
-1,2,3,4`` for N = 1-4, and the 1-cone P1 ladder with ``mesh.size_suture_mm = 0.1``; the tables are in
-docs/speed.md). Each rung records its estimated relative discretisation error of USUM at every
-reported force: (USUM at the rung - reference) / reference, where the reference is the Richardson limit
+1,2,3,4`` for N = 1-4, the 1-cone P1 ladder with ``mesh.size_suture_mm = 0.1``, and the single 1-cone
+P1 r0 rung with ``mesh.size_suture_mm = 0.075`` that is chosen; the tables are in docs/speed.md).
+Each rung records its estimated relative discretisation error of USUM at every reported force:
+(USUM at the rung - reference) / reference, where the reference is the Richardson limit
 of the P1 ladder r0-r2 (refinement ratio 2, observed order) when that ladder converges monotonically at
 that force, else the finest rung solved (P2 r1); :data:`ESTIMATE` says so for each rung.
 

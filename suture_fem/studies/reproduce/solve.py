@@ -124,7 +124,7 @@ def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True, c
         "stopped": {n: s["stopped"] for n, s in solved.items() if s["stopped"]},
         "bands": {(n, f): b for n, s in solved.items() for f, b in s["bands"].items()},
         "cpu_time_s": cpu,
-        "jobs": jobs if comm.size == 1 else 1,
+        "jobs": min(jobs, len(cases)) if comm.size == 1 else 1,  # at most one process per cone count
         "rungs": {n: case.as_dict()["mesh"] for n, case in cases.items()},
     }
 

@@ -84,19 +84,25 @@ def test_the_maximum_over_positions_finds_the_analytic_maximum():
 
 
 def test_the_search_ranks_its_candidates_by_their_disc_average_not_their_point_value():
-    # a narrow spike of height 10 at (0.6, 0.2) (largest point values, small average) and a broad bump of
-    # height 2 at (1.2, 0.7): the largest average is the bump's, which three starts taken by point value
-    # near the spike alone would miss
+    # three narrow spikes of height 10, R or more apart (the largest point values, small averages), and a
+    # broad bump of height 2 at (1.2, 0.7): the largest average is the bump's. The rule before 9886386 (climb
+    # from the three largest point values at least R apart) starts at the three spikes and misses it.
     from suture_fem.outputs.disc import STARTS, top_points
 
+    spikes = [(0.6, 0.2), (0.6, 0.45), (0.85, 0.2)]
+
     def f(r, z):
-        spike = 10 * np.exp(-((r - 0.6) ** 2 + (z - 0.2) ** 2) / 0.02**2)
-        return spike + 2 * np.exp(-((r - 1.2) ** 2 + (z - 0.7) ** 2) / 0.3**2)
+        # each spike on a small hill of its own, a local maximum of the disc average that holds a climb
+        narrow = sum(10 * np.exp(-((r - a) ** 2 + (z - b) ** 2) / 0.02**2)
+                     + 0.5 * np.exp(-((r - a) ** 2 + (z - b) ** 2) / 0.1**2) for a, b in spikes)
+        return narrow + 2 * np.exp(-((r - 1.2) ** 2 + (z - 0.7) ** 2) / 0.3**2)
 
     field = _field(_mesh(40), f)
     values, xy = field.coeffs[:, 0], field.centre  # one value per cell is enough to rank points here
-    spike_first = top_points(MPI.COMM_WORLD, values, xy, RADIUS / 10, count=STARTS)
-    assert np.all(np.hypot(*(spike_first - [0.6, 0.2]).T) < 0.1)  # the three largest values: all at the spike
-    near_spike = max_disc_average(field, spike_first, RADIUS)
+    old_starts = top_points(MPI.COMM_WORLD, values, xy, RADIUS, count=STARTS)
+    nearest_spike = np.min([np.hypot(*(old_starts - s).T) for s in spikes], axis=0)
+    assert np.all(nearest_spike < 0.05)  # the three largest values R apart: one at each spike
+    old = max_disc_average(field, old_starts, RADIUS)
     found = max_disc_average(field, top_points(MPI.COMM_WORLD, values, xy, RADIUS), RADIUS)
-    assert found.at == pytest.approx([1.2, 0.7], abs=0.05) and found.value > near_spike.value
+    assert found.at == pytest.approx([1.2, 0.7], abs=0.05) and found.value > old.value
+    assert np.hypot(*(np.asarray(old.at) - [1.2, 0.7])) > 0.3  # the old rule's climb did not reach the bump

@@ -68,18 +68,23 @@ class CriticalDistance(Quantity):
     def _measure(self, state: State, region: str) -> dict[str, Any]:
         if region not in self.parts:
             return {}
-        layers, cells, mine, xy, locate = self.parts[region]
+        xy = self.parts[region][3]
         out: dict[str, Any] = {}
         for name, fn in self.fields:
-            values = np.concatenate([fn(state, r) for r in layers])
-            values = values.reshape(len(mine), -1)[mine] if len(mine) else np.zeros((0, 1))
-            field = CellField(self.setup.physics.mesh, cells, xy if xy is not None else np.zeros((0, 1, 2)),
-                              values, locate)
+            field, values = self.field(state, region, fn)
             flat_xy = xy.reshape(-1, 2) if xy is not None else np.zeros((0, 2))
             starts = top_points(state.comm, values.reshape(-1), flat_xy, self.radius)
             found = max_disc_average(field, starts, self.radius)
             out[name] = Maximum(found.value, [c / MM for c in found.at] if found.at is not None else None)
         return out
+
+    def field(self, state: State, region: str, fn: Any) -> tuple[CellField, np.ndarray]:
+        """A region's field ``fn`` (a function of :data:`FIELDS`) at the state: (the fitted field, its point values)."""
+        layers, cells, mine, xy, locate = self.parts[region]
+        values = np.concatenate([fn(state, r) for r in layers])
+        values = values.reshape(len(mine), -1)[mine] if len(mine) else np.zeros((0, 1))
+        xy = xy if xy is not None else np.zeros((0, 1, 2))
+        return CellField(self.setup.physics.mesh, cells, xy, values, locate), values
 
     def in_region(self, state: State, region: str) -> dict[str, Any]:
         """The largest disc averages of one tissue layer (collective)."""

@@ -25,7 +25,7 @@ import numpy as np
 from suture_fem.geometry.regions import MM
 from suture_fem.outputs.base import Setup, State
 from suture_fem.outputs.critical_distance import FIELDS, CriticalDistance
-from suture_fem.outputs.disc import CellField, disc_averages
+from suture_fem.outputs.disc import disc_averages
 from suture_fem.physics.problem import Physics
 from suture_fem.scene.schema import OutputSection
 
@@ -52,11 +52,7 @@ class TissueMeasures:
 
     def at_centre(self, name: str, centre_mm: list[float]) -> float:
         """The disc average of the measure's field around a fixed centre (mm), at the current state (collective)."""
-        layers, cells, mine, xy, locate = self.cd.parts["tissue"]
-        state = State(self.setup)
-        values = np.concatenate([self.field_of[name](state, r) for r in layers])
-        values = values.reshape(len(mine), -1)[mine] if len(mine) else np.zeros((0, 1))
-        field = CellField(self.physics.mesh, cells, xy if xy is not None else np.zeros((0, 1, 2)), values, locate)
+        field, _ = self.cd.field(State(self.setup), "tissue", self.field_of[name])
         return float(disc_averages(field, np.array([centre_mm], dtype=float) * MM, self.cd.radius)[0])
 
     def derivative(self, name: str, centre_mm: list[float], key: str, change: np.ndarray) -> float:

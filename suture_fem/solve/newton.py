@@ -307,10 +307,8 @@ class NewtonSolver:
         """Du/ds at the converged state into ``out`` (the state's layout); False when it cannot be had.
 
         ``set_load(v)`` sets the loads at path parameter v, on which the residual depends linearly (the
-        pull, the weight), so dR/ds = R(u, s + 1) - R(u, s) exactly. One back-substitution with the
-        factorisation of the solve that just converged (the Jacobian of its last iterate, inside the
-        solve's tolerance of the converged state): A du/ds = -dR/ds. Costs two residual assemblies and
-        no factorisation.
+        pull, the weight), so dR/ds = R(u, s + 1) - R(u, s) exactly; A du/ds = -dR/ds by
+        :meth:`solve_reduced`: two residual assemblies, one back-substitution, no factorisation.
         """
         r0, r1, dx = self.b.duplicate(), self.b.duplicate(), self.x.duplicate()
         try:
@@ -320,11 +318,7 @@ class NewtonSolver:
             self._residual(self.snes, self.x, r0)
             r1.axpy(-1.0, r0)
             r1.scale(-1.0)
-            ksp = self.snes.getKSP()
-            t0 = time.perf_counter()
-            ksp.solve(r1, dx)
-            self.timings.linear_solve += time.perf_counter() - t0
-            if ksp.getConvergedReason() < 0 or not np.all(np.isfinite(dx.getArray(readonly=True))):
+            if not self.solve_reduced(r1, dx):
                 return False
             self.reduction.T.mult(dx, out)
             out.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -338,6 +332,17 @@ class NewtonSolver:
             self.reduction.expand(self.x)
             for vec in (r0, r1, dx):
                 vec.destroy()
+
+    def solve_reduced(self, b: Any, x: Any) -> bool:
+        """A x = b on the unknowns by the last Newton iteration's factorisation (False: failed).
+
+        After a converged solve: A at its last iterate, within the solve's tolerance of the converged state.
+        """
+        ksp = self.snes.getKSP()
+        t0 = time.perf_counter()
+        ksp.solve(b, x)
+        self.timings.linear_solve += time.perf_counter() - t0
+        return ksp.getConvergedReason() >= 0 and bool(np.all(np.isfinite(x.getArray(readonly=True))))
 
     def linear_failure(self) -> bool:
         """True when the last linear solve failed (e.g. a factorisation that ran out of memory)."""

@@ -60,11 +60,14 @@ def ramp(
     scene: Scene,
     on_converged: Callable[..., None],
     timings: Timings | None = None,
+    with_solver: bool = False,
 ) -> RampResult:
     """Follow the scene's load path: gravity preload (if called), then the load ramp or the time history.
 
     ``on_converged(force_n, is_report_point)`` is called after every converged step of the pull
-    (with inertia also ``time_s=t``); report points (``loading.report_forces_n``, the peak and, with
+    (with inertia also ``time_s=t``; with ``with_solver`` also ``solver=`` the NewtonSolver, whose
+    :meth:`~suture_fem.solve.newton.NewtonSolver.solve_reduced` reuses the step's factorisation); report
+    points (``loading.report_forces_n``, the peak and, with
     inertia, the end of the hold) are always hit exactly.
     Raises SolveStopped (with every converged step already handed to on_converged) when it cannot go on.
     """
@@ -75,11 +78,11 @@ def ramp(
     fraction = scene.solver.gent_limit_fraction
     try:
         if physics.gravity_factor is not None:
-            _Stepper(GravityPreload(physics, scene), newton, result, on_converged, fraction).run()
+            _Stepper(GravityPreload(physics, scene), newton, result, on_converged, fraction, with_solver).run()
         main = TimeHistory(physics, scene) if physics.dynamics is not None else LoadRamp(physics, scene)
         if physics.dynamics is not None:
             physics.dynamics.start_from(physics.state)
-        _Stepper(main, newton, result, on_converged, fraction).run()
+        _Stepper(main, newton, result, on_converged, fraction, with_solver).run()
     finally:
         newton.destroy()
     return result
@@ -89,10 +92,11 @@ class _Stepper:
     """Adaptive stepping along one path, with cutback and retry, linear predictor and solver fallback."""
 
     def __init__(self, path: Path, newton: NewtonSolver, result: RampResult, on_converged: Callable[..., None],
-                 fraction: float):
+                 fraction: float, with_solver: bool = False):
         self.path, self.newton, self.result, self.on_converged, self.fraction = (
             path, newton, result, on_converged, fraction)
         self.physics = newton.physics
+        self.extra = {"solver": newton} if with_solver else {}  # for on_converged
         self.eps = 1e-12 * path.end
         self.u_vec = compat.function_vector(self.physics.state)
         self.last = self.u_vec.copy()  # the last converged state
@@ -205,7 +209,10 @@ class _Stepper:
         if path.reports:
             path.before_report(s)
             t = path.time(s)
-            self.on_converged(path.force(s), hit) if t is None else self.on_converged(path.force(s), hit, time_s=t)
+            if t is None:
+                self.on_converged(path.force(s), hit, **self.extra)
+            else:
+                self.on_converged(path.force(s), hit, time_s=t, **self.extra)
         path.accept(s_old, s)
         self._update_tangent()
         if its <= self.newton.options.easy_iterations:

@@ -88,12 +88,11 @@ class Case:
         scene = with_values(self.scene, {"loading.force_n": max(forces), "loading.report_forces_n": sorted(forces)})
         at: dict[float, tuple[list[float], list[np.ndarray]]] = {}
 
-        def on_converged(force_n: float, report: bool, time_s: float | None = None) -> None:
-            if report:
-                at[round(force_n, 9)] = self.sensitivity.at_state_many(quantities, direct)
-                self.cost.sensitivity_factorisations += 1 if direct else 0
+        def on_converged(force_n: float, report: bool, time_s: float | None = None, solver: Any = None) -> None:
+            if report:  # the Newton solver's own factorisation gives du/dp (none is added)
+                at[round(force_n, 9)] = self.sensitivity.at_state_many(quantities, direct, solver)
 
-        result = ramp(physics, scene, on_converged)
+        result = ramp(physics, scene, on_converged, with_solver=True)
         self.cost.ramps += 1
         self.cost.newton_iterations += result.newton_iterations
         self.cost.load_steps += len(result.steps)

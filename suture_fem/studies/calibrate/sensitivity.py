@@ -4,9 +4,11 @@ R(u; p) = 0 at every converged state, so dR/du du/dp + dR/dp = 0. dR/dp is the r
 partial derivative with respect to the parameter's Constant
 (:meth:`~suture_fem.physics.problem.Physics.parameter_derivative`); A = dR/du is the Jacobian. Both
 act on the unknowns SNES solves for (u = T x, :class:`~suture_fem.solve.reduction.Reduction`), so the
-fixed dofs stay fixed. The Newton solver's own factorisation is not reachable after its ramp step
-returns (the load stepping owns and destroys the solver), so A is assembled once more at the
-converged state and factorised once (MUMPS LU) for all parameters of that state.
+fixed dofs stay fixed. The calibration's ramps hand the converged Newton solver to their report
+callback (:func:`~suture_fem.solve.stepping.ramp` with ``with_solver``), and A's factorisation from
+its last iteration (inside the solve's tolerance of the converged state) solves for every parameter
+of that state: no assembly, no factorisation. Callers without a solver (reproduce's USUM bands, after
+a run) get A assembled once more at the state and factorised once (MUMPS LU).
 
 From du/dp: the thread end's displacement is a linear functional of u (the same form, evaluated at
 du/dp); USUM is max |u_i| over the nodes, whose derivative at its node i* is u_i* . du_i*/dp / |u_i*|; the
@@ -15,6 +17,8 @@ map along du/dp, no extra solve (:mod:`suture_fem.studies.calibrate.measures`).
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 import dolfinx.fem
 import dolfinx.fem.petsc
@@ -85,13 +89,18 @@ class Sensitivity:
             return self.measures().maximum(quantity)[0]
         return self.thread_end_mm() if quantity == THREAD_END else self._usum_node()[0]
 
-    def at_state(self, quantity: str, keys: list[str]) -> tuple[float, np.ndarray]:
+    def at_state(self, quantity: str, keys: list[str], solver: Any = None) -> tuple[float, np.ndarray]:
         """The prediction and its derivative with respect to every key, at the current (converged) state."""
-        values, derivatives = self.at_state_many([quantity], keys)
+        values, derivatives = self.at_state_many([quantity], keys, solver)
         return values[0], derivatives[0]
 
-    def at_state_many(self, quantities: list[str], keys: list[str]) -> tuple[list[float], list[np.ndarray]]:
-        """:meth:`at_state` of several quantities at once: one factorisation of the Jacobian for them all."""
+    def at_state_many(self, quantities: list[str], keys: list[str],
+                      solver: Any = None) -> tuple[list[float], list[np.ndarray]]:
+        """:meth:`at_state` of several quantities at once: one factorisation of the Jacobian for them all.
+
+        ``solver``: the NewtonSolver that just converged (:func:`~suture_fem.solve.stepping.ramp` with
+        ``with_solver``), whose factorisation is then reused; None: A is assembled and factorised here.
+        """
         values, centres = [], {}
         for quantity in quantities:
             if quantity in (SEQV_CD, EPTOEQV_CD):
@@ -102,7 +111,7 @@ class Sensitivity:
         out = [np.zeros(len(keys)) for _ in quantities]
         if not keys:
             return values, out
-        changes = self.state_derivatives(keys)
+        changes = self.state_derivatives(keys, solver)
         for j, (key, change) in enumerate(zip(keys, changes)):
             for i, quantity in enumerate(quantities):
                 if quantity in centres:
@@ -127,8 +136,14 @@ class Sensitivity:
             local = float(u_node @ self.du.x.array.reshape(-1, 2)[i]) / (usum * MM) / MM
         return p.comm.allreduce(local, op=MPI.SUM)
 
-    def state_derivatives(self, keys: list[str]) -> list[np.ndarray]:
-        """Du/dp for every key, as local arrays of the state (one assembly and one factorisation of A)."""
+    def state_derivatives(self, keys: list[str], solver: Any = None) -> list[np.ndarray]:
+        """Du/dp for every key, as local arrays of the state.
+
+        With ``solver`` (the NewtonSolver that just converged) its factorisation solves A du/dp = -dR/dp
+        (no assembly, no factorisation); without, A is assembled and factorised once here for every key.
+        """
+        if solver is not None:
+            return self._derivatives_with(solver, keys)
         p, T = self.physics, self.reduction.T
         self.A_full.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
@@ -159,4 +174,27 @@ class Sensitivity:
         finally:
             for obj in (ksp, A, b, x):
                 obj.destroy()
+        return out
+
+    def _derivatives_with(self, solver: Any, keys: list[str]) -> list[np.ndarray]:
+        """Du/dp for every key by the factorisation the Newton solver ``solver`` holds."""
+        T = solver.reduction.T
+        b, x = T.createVecRight(), T.createVecRight()
+        out = []
+        try:
+            for key in keys:
+                rhs = dolfinx.fem.petsc.assemble_vector(self.physics.parameter_derivative(key))
+                rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                T.multTranspose(rhs, b)
+                rhs.destroy()
+                b.scale(-1.0)
+                if not solver.solve_reduced(b, x):
+                    raise RuntimeError(f"the sensitivity solve for {key} failed")
+                vec = compat.function_vector(self.du_state)
+                T.mult(x, vec)
+                vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+                out.append(self.du_state.x.array.copy())
+        finally:
+            b.destroy()
+            x.destroy()
         return out

@@ -95,7 +95,7 @@ class NewtonSolver:
         self.b = self.reduction.create_vector()
         self.x = self.reduction.create_vector()
         self._scaled: Any = None  # work matrix for the round-off floor
-        self._abs_x = self.x.duplicate()
+        self._work = self.x.duplicate()  # scratch vector of the unknowns
         self.floor = 0.0  # round-off floor of the residual at the start of the last solve that assembled A (N)
         self.outside_domain = 0
         self.last_violation: Violation | None = None
@@ -222,12 +222,12 @@ class NewtonSolver:
         before any Jacobian) uses the previous solve's floor. With random rounding signs this is the
         expected norm of the change; Newton iterates stagnate at about a third of it.
         """
-        self._abs_x.setArray(np.abs(x.getArray(readonly=True)))
+        self._work.setArray(np.abs(x.getArray(readonly=True)))
         if self._scaled is None:
             self._scaled = self.A.duplicate(copy=True)
         else:
             self.A.copy(self._scaled, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self._scaled.diagonalScale(None, self._abs_x)
+        self._scaled.diagonalScale(None, self._work)
         return float(np.finfo(float).eps * self._scaled.norm(PETSc.NormType.FROBENIUS))
 
     def solve(self) -> tuple[bool, int, str]:
@@ -295,22 +295,17 @@ class NewtonSolver:
                 b_local.set(0.0)
             dolfinx.fem.petsc.assemble_vector(self.b_full, self.F_form)
             self.b_full.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            reduced = self.b.duplicate()
-            self.reduction.T.multTranspose(self.b_full, reduced)
-            norm = reduced.norm()
-            reduced.destroy()
-            return norm
+            self.reduction.T.multTranspose(self.b_full, self._work)
+            return self._work.norm()
         finally:
             self.timings.assembly += time.perf_counter() - t0
 
-    def tangent(self, set_load: Any, s: float, out: Any) -> bool:
-        """Du/ds at the converged state into ``out`` (the state's layout); False when it cannot be had.
+    def load_rate(self, set_load: Any, s: float) -> Any:
+        """-dR/ds on the unknowns (a new vector), ``set_load(v)`` setting the loads at path parameter v.
 
-        ``set_load(v)`` sets the loads at path parameter v, on which the residual depends linearly (the
-        pull, the weight), so dR/ds = R(u, s + 1) - R(u, s) exactly; A du/ds = -dR/ds by
-        :meth:`solve_reduced`: two residual assemblies, one back-substitution, no factorisation.
+        The pull and the weight are dead loads, linear in s: R(u, s + 1) - R(u, s) is dR/ds at every u.
         """
-        r0, r1, dx = self.b.duplicate(), self.b.duplicate(), self.x.duplicate()
+        r0, r1 = self.b.duplicate(), self.b.duplicate()
         try:
             set_load(s + 1.0)
             self._residual(self.snes, self.x, r1)
@@ -318,7 +313,17 @@ class NewtonSolver:
             self._residual(self.snes, self.x, r0)
             r1.axpy(-1.0, r0)
             r1.scale(-1.0)
-            if not self.solve_reduced(r1, dx):
+            return r1
+        finally:
+            set_load(s)
+            self.reduction.expand(self.x)
+            r0.destroy()
+
+    def tangent(self, rate: Any, out: Any) -> bool:
+        """Du/ds into ``out`` (state layout): A du/ds = ``rate`` by :meth:`solve_reduced`; False when it failed."""
+        dx = self.x.duplicate()
+        try:
+            if not self.solve_reduced(rate, dx):
                 return False
             self.reduction.T.mult(dx, out)
             out.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -328,16 +333,10 @@ class NewtonSolver:
                 raise Interrupted.pending from None
             return False
         finally:
-            set_load(s)
-            self.reduction.expand(self.x)
-            for vec in (r0, r1, dx):
-                vec.destroy()
+            dx.destroy()
 
     def solve_reduced(self, b: Any, x: Any) -> bool:
-        """A x = b on the unknowns by the last Newton iteration's factorisation (False: failed).
-
-        After a converged solve: A at its last iterate, within the solve's tolerance of the converged state.
-        """
+        """A x = b by the last Newton iteration's factorisation (after a converged solve: A there); False: failed."""
         ksp = self.snes.getKSP()
         t0 = time.perf_counter()
         ksp.solve(b, x)
@@ -358,7 +357,7 @@ class NewtonSolver:
         opts = PETSc.Options()  # a later solver in this process (a sweep) may reuse the prefix: leave nothing
         for key in [k for k in opts.getAll() if k.startswith(self.prefix)]:
             opts.delValue(key)
-        for obj in (self.A, self.A_full, self.b, self.b_full, self.x, self._abs_x, self._scaled):
+        for obj in (self.A, self.A_full, self.b, self.b_full, self.x, self._work, self._scaled):
             if obj is not None:
                 obj.destroy()
         self.reduction.destroy()

@@ -102,6 +102,7 @@ class _Stepper:
         self.last = self.u_vec.copy()  # the last converged state
         self.previous: Any = None  # state before `last`, for the predictor
         self.tangent: Any = None  # du/ds at `last`, when the path's loads are linear in s and it was had
+        self.rate: Any = None  # -dR/ds on the unknowns, for the tangent
         self.s, self.prev_step, self.step = 0.0, 0.0, path.initial
         self.retried = False  # this step already retried with the other line search
         self.cuts_here = 0  # cutbacks in a row at the current load s
@@ -121,7 +122,7 @@ class _Stepper:
         finally:
             self._set_state(self.last)  # never leave a diverged state behind, nor the loads of a failed trial
             self.path.restore(self.s)
-            for vec in (self.last, self.previous, self.tangent):
+            for vec in (self.last, self.previous, self.tangent, self.rate):
                 if vec is not None:
                     vec.destroy()
 
@@ -226,7 +227,9 @@ class _Stepper:
             return
         if self.tangent is None:
             self.tangent = self.u_vec.duplicate()
-        if not self.newton.tangent(lambda v: self.path.apply(v, v), self.s, self.tangent):
+        if self.rate is None:  # -dR/ds: dead loads, the same all along the path
+            self.rate = self.newton.load_rate(lambda v: self.path.apply(v, v), self.s)
+        if not self.newton.tangent(self.rate, self.tangent):
             self.tangent.destroy()
             self.tangent = None
 

@@ -143,42 +143,30 @@ class Sensitivity:
         (no assembly, no factorisation); without, A is assembled and factorised once here for every key.
         """
         if solver is not None:
-            return self._derivatives_with(solver, keys)
-        p, T = self.physics, self.reduction.T
+            return self._derivatives(keys, solver.reduction.T, solver.solve_reduced)
+        T = self.reduction.T
         self.A_full.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
         self.A_full.assemble()
         A = self.A_full.ptap(T)
-        ksp = PETSc.KSP().create(p.comm)
+        ksp = PETSc.KSP().create(self.physics.comm)
         ksp.setOperators(A)
         ksp.setType("preonly")
-        pc = ksp.getPC()
-        pc.setType("lu")
-        pc.setFactorSolverType("mumps")
-        b, x = A.createVecs()
-        out = []
-        try:
-            for key in keys:
-                rhs = dolfinx.fem.petsc.assemble_vector(p.parameter_derivative(key))
-                rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-                T.multTranspose(rhs, b)
-                b.scale(-1.0)
-                ksp.solve(b, x)
-                if ksp.getConvergedReason() < 0:
-                    raise RuntimeError(f"the sensitivity solve for {key} failed ({ksp.getConvergedReason()})")
-                vec = compat.function_vector(self.du_state)
-                T.mult(x, vec)
-                vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-                out.append(self.du_state.x.array.copy())
-                rhs.destroy()
-        finally:
-            for obj in (ksp, A, b, x):
-                obj.destroy()
-        return out
+        ksp.getPC().setType("lu")
+        ksp.getPC().setFactorSolverType("mumps")
 
-    def _derivatives_with(self, solver: Any, keys: list[str]) -> list[np.ndarray]:
-        """Du/dp for every key by the factorisation the Newton solver ``solver`` holds."""
-        T = solver.reduction.T
+        def solve(b: Any, x: Any) -> bool:
+            ksp.solve(b, x)
+            return ksp.getConvergedReason() >= 0
+
+        try:
+            return self._derivatives(keys, T, solve)
+        finally:
+            ksp.destroy()
+            A.destroy()
+
+    def _derivatives(self, keys: list[str], T: Any, solve: Any) -> list[np.ndarray]:
+        """Du/dp for every key: -dR/dp on the unknowns, ``solve(b, x)`` (A x = b; False: failed), u = T x."""
         b, x = T.createVecRight(), T.createVecRight()
         out = []
         try:
@@ -188,7 +176,7 @@ class Sensitivity:
                 T.multTranspose(rhs, b)
                 rhs.destroy()
                 b.scale(-1.0)
-                if not solver.solve_reduced(b, x):
+                if not solve(b, x):
                     raise RuntimeError(f"the sensitivity solve for {key} failed")
                 vec = compat.function_vector(self.du_state)
                 T.mult(x, vec)

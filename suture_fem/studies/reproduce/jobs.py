@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import logging
 import os
-import resource
 import subprocess
 import sys
 import time
@@ -25,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.scene import Scene
+from suture_fem.studies.reproduce.solve import cpu_self, field_path, solve_case
 from suture_fem.support.errors import SutureFemError
 from suture_fem.support.io import read_json, write_json
 
@@ -65,19 +65,17 @@ def solve_in_processes(cases: dict[int, Scene], out: Path, comm: Any, fields_dir
     :func:`~suture_fem.studies.reproduce.solve.solve_case`'s record, a child's grids loaded from the
     field files it wrote.
     """
-    from suture_fem.studies.reproduce.solve import solve_case
-
     mine, *others = groups(costs, jobs)
     running: dict[int, tuple[list[int], subprocess.Popen, Any, float]] = {}
     solved: dict[int, dict[str, Any]] = {}
-    cpu0 = _cpu_self()
+    cpu0 = cpu_self()
     try:
         for group in others:
             pid, proc, logfile = _start({n: cases[n] for n in group}, out, fields_dir, band)
             running[pid] = (group, proc, logfile, time.perf_counter())
         for n in mine:
             solved[n] = solve_case(cases[n], out / f"cones_{n}", comm, fields_dir, band)
-        cpu = _cpu_self() - cpu0
+        cpu = cpu_self() - cpu0
         while running:
             pid = next(iter(running))  # our children in turn (never another child's status)
             _, status, usage = os.wait4(pid, 0)
@@ -95,11 +93,6 @@ def solve_in_processes(cases: dict[int, Scene], out: Path, comm: Any, fields_dir
             proc.wait()
             logfile.close()
     return {n: solved[n] for n in cases}, cpu
-
-
-def _cpu_self() -> float:
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    return usage.ru_utime + usage.ru_stime
 
 
 def _start(cases: dict[int, Scene], out: Path, fields_dir: Path | None,
@@ -130,7 +123,6 @@ def _collect(n: int, folder: Path, fields_dir: Path | None, code: int, log_file:
     grids = {}
     if fields_dir is not None:
         from suture_fem import plots
-        from suture_fem.studies.reproduce.solve import field_path
 
         grids = {f: plots.load_grid(field_path(fields_dir, n, f)) for f in ramp["forces_n"]}
     return {"results": read_json(folder / "results.json"), "stopped": ramp["stopped"],
@@ -147,7 +139,6 @@ def run_case_file(path: Path, comm: Any) -> int:
     """Solve the case in ``path`` (``case.json``) on ``comm``; write ramp.json beside it; 0, or 3 if it stopped."""
     from suture_fem.pipeline import check
     from suture_fem.scene.load import validate
-    from suture_fem.studies.reproduce.solve import solve_case
 
     case = read_json(path)
     scene = Scene.from_dict(validate(case["scene"]))

@@ -108,14 +108,14 @@ def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True, c
         costs = {n: getattr(RUNGS.get(n), "cpu_s", 0.0) or float(n) for n in cases}
         solved, cpu = solve_in_processes(cases, out, comm, fields_dir, band, jobs, costs)
     else:
-        cpu0 = _cpu_self()
+        cpu0 = cpu_self()
         solved = {}
         for n, case in cases.items():
             t1 = time.perf_counter()
             solved[n] = solve_case(case, out / f"cones_{n}", comm, fields_dir, band)
             log.info("%d cone(s): solved to %.3g N in %.1f s", n, solved[n]["results"].get("force_reached_n", 0.0),
                      time.perf_counter() - t1)
-        cpu = comm.allreduce(_cpu_self() - cpu0)
+        cpu = comm.allreduce(cpu_self() - cpu0)
     log.info("cone counts %s: %.1f s CPU, %.1f s wall (%d job(s))", ",".join(map(str, cones)), cpu,
              time.perf_counter() - t0, jobs)
     return {
@@ -129,6 +129,7 @@ def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True, c
     }
 
 
-def _cpu_self() -> float:
+def cpu_self() -> float:
+    """CPU seconds (user + system) of this process so far."""
     usage = resource.getrusage(resource.RUSAGE_SELF)
     return usage.ru_utime + usage.ru_stime

@@ -6,6 +6,7 @@ OUT/summary.json and OUT/summary.md (the tables of every ledger, for docs/ledger
 
     .venv/bin/python benchmarks/ledger.py [--out benchmarks/out/ledger] [--only paper] [--summary-only]
     .venv/bin/python benchmarks/ledger.py --only stress-1cone-p2 --only stress-4cones-p2   # issue 17's ladders
+    .venv/bin/python benchmarks/ledger.py --only fillet-1cone-p2 --only fillet-1cone-farfield  # fillet refined only
 
 The finest rungs are slow on a 2-core machine (degree 1 refinement 2: about 100k cells; degree 2 is
 stopped at refinement 1): the whole benchmark takes 30-60 minutes there.
@@ -34,6 +35,9 @@ COMMON = ["--degrees", "1,2", "--refinements", "0,1,2", "--cap", "2=1", "--force
 #: The ladders of issue 17's converging stress measures (the 0.04 mm fillet, degree 2; docs/ledger.md):
 #: name -> (title, every argument after the scene name). Not run by default (--only NAME).
 FILLET = ["--set", "geometry.cone_fillet_mm=0.04", "--degrees", "2"]
+ONE_CONE = ["--set", "geometry.cones=1", "--set", "loading.force_n=1", "--forces", "1"]
+#: refinement 1 and fillet level 3: 8 x 2^3 elements along each arc, doubled by the refinement = 128
+FAR_FIELD = ["--set", "mesh.refinement=1", "--refinements", "3", "--refine", "fillet"]
 STRESS_LADDERS = {
     "stress-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2", [*FILLET, "--set", "geometry.cones=1", "--set",
                                                            "loading.force_n=1", "--forces", "1", "--refinements",
@@ -42,6 +46,16 @@ STRESS_LADDERS = {
                            [*FILLET, "--set", "geometry.cones=1", "--set", "loading.force_n=1", "--forces", "1",
                             "--refinements", "0,1,2", "--formulations", "mixed"]),
     "stress-4cones-p2": ("4 cones, fillet 0.04 mm, P2", [*FILLET, "--forces", "1,4", "--refinements", "0,1"]),
+    # only the fillet refined (8..128 elements along each arc, the far field at refinement 0), and the
+    # far-field check: the finest arc (128 elements) at refinement 1
+    "fillet-4cones-p2": ("4 cones, fillet 0.04 mm, P2, only the fillet refined",
+                         [*FILLET, "--forces", "1,4", "--refinements", "0,1,2,3,4", "--refine", "fillet"]),
+    "fillet-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2, only the fillet refined",
+                        [*FILLET, *ONE_CONE, "--refinements", "0,1,2,3,4", "--refine", "fillet"]),
+    "fillet-4cones-farfield": ("4 cones, fillet 0.04 mm, P2 r1, 128 elements along each arc",
+                               [*FILLET, *FAR_FIELD, "--forces", "1,4"]),
+    "fillet-1cone-farfield": ("1 cone, 1 N, fillet 0.04 mm, P2 r1, 128 elements along each arc",
+                              [*FILLET, *ONE_CONE, *FAR_FIELD]),
 }
 SUMMARY = ("usum_mm", "regions.tissue.seqv_pa", "regions.tissue.seqv_outside_rim_pa",
            "ledger.tissue_seqv_pa_beyond_0p25mm", "ledger.tissue_seqv_pa_beyond_0p5mm", "eptoeqv")

@@ -1,6 +1,7 @@
 """``suture-fem convergence`` (the accuracy-cost ledger) and ``suture-fem ledger-rung`` (one of its rungs).
 
     suture-fem convergence SCENE [--set KEY=VALUE ...] [--out DIR] [--degrees 1,2] [--refinements 0,1,2]
+                           [--refine all|rim|fillet]
     suture-fem ledger-rung SCENE [--set KEY=VALUE ...] --out DIR
 
 This module parses the arguments and calls the study (:mod:`suture_fem.studies.convergence`); every
@@ -16,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.pipeline import load_scene
-from suture_fem.studies.convergence.ladder import FORMULATION_KEY, plan_ladder
+from suture_fem.studies.convergence.ladder import FORMULATION_KEY, LEVEL_NAMES, plan_ladder
 from suture_fem.studies.convergence.singular import solve_rung
 from suture_fem.studies.convergence.study import run_ledger
 from suture_fem.support.errors import SceneError
@@ -60,9 +61,11 @@ def register(subparsers: Any, scene_args: Any) -> None:
     p.add_argument("--degrees", default="1,2", help="element degrees (default 1,2)")
     p.add_argument("--refinements", default="0,1,2",
                    help="refinement levels (default 0,1,2; three give an observed order)")
-    p.add_argument("--refine", choices=("all", "rim"), default="all",
+    p.add_argument("--refine", choices=tuple(LEVEL_NAMES), default="all",
                    help="all: level k is mesh.refinement = k (every size halves); rim: only mesh.size_rim_mm "
-                        "is halved k times, at the scene's refinement (what local refinement at the cone rims buys)")
+                        "is halved k times, at the scene's refinement (what local refinement at the cone rims buys); "
+                        "fillet: only mesh.fillet_elements is doubled k times, at the scene's refinement (the "
+                        "elements along each rounded rim's arc; needs geometry.cone_fillet_mm > 0)")
     p.add_argument("--cap", action="append", default=[], metavar="DEGREE=LEVEL",
                    help="finest level solved for a degree, e.g. --cap 2=1 "
                         "(degree-2 rungs above refinement 1 are too slow)")

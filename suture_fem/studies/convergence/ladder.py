@@ -1,7 +1,10 @@
 """The ladder of solves and what each rung cost: wall time, CPU time, memory, dofs, Newton iterations.
 
 A ladder solves one scene refinement by refinement (every element size halves per step) for each
-element degree (and each incompressibility formulation, where the scene has that choice).
+element degree (and each incompressibility formulation, where the scene has that choice). Its levels
+may instead refine one place only, at the scene's ``mesh.refinement`` (``Ladder.refine``): "rim"
+halves ``mesh.size_rim_mm`` per level (the cone corners), "fillet" doubles ``mesh.fillet_elements``
+per level (the elements along each rounded base rim's arc, whose size then halves as in the others).
 
 Each rung runs by default as its own ``suture-fem ledger-rung`` process (``suture-fem run`` plus the
 tissue's maxima away from every singular point), so its peak memory (``ru_maxrss`` of that child,
@@ -42,6 +45,8 @@ log = logging.getLogger("suture_fem")
 RUNG_VERSION = 3
 #: Scene key of the incompressibility formulation, where the scene has one.
 FORMULATION_KEY = "effects.incompressibility"
+#: What a ladder refines (``--refine``) -> the prefix of its rungs' levels in names and labels.
+LEVEL_NAMES = {"all": "r", "rim": "rim", "fillet": "fillet"}
 
 
 @dataclass
@@ -53,7 +58,8 @@ class Rung:
     refinement: int
     formulation: str | None
     overrides: list[str]
-    level_name: str = "r"  # "r": mesh.refinement; "rim": halvings of mesh.size_rim_mm
+    level_name: str = "r"  # "r": mesh.refinement; "rim": halvings of mesh.size_rim_mm; "fillet": doublings of
+    # mesh.fillet_elements (LEVEL_NAMES)
     status: str = "not run"
     exit_code: int | None = None
     wall_time_s: float | None = None  # inside run_scene: meshing, forms, load ramp, outputs
@@ -154,15 +160,18 @@ class Ladder:
     refinements: list[int]
     formulations: list[str | None]
     forces: list[float]
-    refine: str = "all"  # "all": level k is mesh.refinement = k; "rim": mesh.size_rim_mm / 2^k only
+    refine: str = "all"  # "all": level k is mesh.refinement = k; "rim": mesh.size_rim_mm / 2^k only;
+    # "fillet": mesh.fillet_elements * 2^k only (both at the scene's mesh.refinement)
     caps: dict[int, int] = field(default_factory=dict)  # degree -> finest level solved
 
     def level_overrides(self, level: int) -> list[str]:
-        """The scene keys of a refinement level: every size halved, or only the rim size (``refine``)."""
+        """The scene keys of a level: every size halved, or only the rim size, or only the fillet's (``refine``)."""
         if self.refine == "all":
             return [f"mesh.refinement={level}"]
-        base = load_scene(self.source, self.overrides).mesh.size_rim_mm
-        return [f"mesh.size_rim_mm={base / REFINEMENT_RATIO**level!r}"]
+        mesh = load_scene(self.source, self.overrides).mesh
+        if self.refine == "fillet":
+            return [f"mesh.fillet_elements={fillet_elements(mesh.fillet_elements, level)}"]
+        return [f"mesh.size_rim_mm={mesh.size_rim_mm / REFINEMENT_RATIO**level!r}"]
 
     def rungs(self) -> list[tuple[Rung, Scene]]:
         """Every valid (rung, resolved scene); combinations the scene rejects are skipped with a log line."""
@@ -172,7 +181,7 @@ class Ladder:
                 for refinement in self.refinements:
                     if refinement > self.caps.get(degree, refinement):
                         continue
-                    level = "r" if self.refine == "all" else "rim"
+                    level = LEVEL_NAMES[self.refine]
                     extra = [f"mesh.degree={degree}", *self.level_overrides(refinement)]
                     if formulation is not None:
                         extra.append(f"{FORMULATION_KEY}={json.dumps(formulation)}")
@@ -251,13 +260,36 @@ def solve_ladder(ladder: Ladder, out: Path, comm: Any, inprocess: bool, redo: bo
     return done
 
 
+def fillet_elements(base: int, level: int) -> int:
+    """Elements along each fillet arc at a level of ``--refine fillet``: the scene's count doubled ``level`` times.
+
+    The arc's element size halves per level, so the Richardson ratio is :data:`REFINEMENT_RATIO` as for
+    the other ladders.
+    """
+    return base * int(REFINEMENT_RATIO) ** level
+
+
+def _check_fillet_levels(base: Scene, levels: Sequence[int]) -> None:
+    """Refuse a ``--refine fillet`` ladder the scene cannot have: no fillet, or too many elements on an arc."""
+    if base.geometry.cone_fillet_mm <= 0:
+        raise SceneError("--refine fillet: the scene's rims are sharp (geometry.cone_fillet_mm = 0); "
+                         "round them first, e.g. --set geometry.cone_fillet_mm=0.04")
+    rule, n = RULES["mesh.fillet_elements"], base.mesh.fillet_elements
+    over = [k for k in levels if fillet_elements(n, k) > rule.hi]
+    if over:
+        raise SceneError(f"--refine fillet: level {over[0]} would put {fillet_elements(n, over[0])} elements on each "
+                         f"fillet arc (mesh.fillet_elements = {n} doubled {over[0]} times); "
+                         f"mesh.fillet_elements allows at most {rule.hi:g}")
+
+
 def plan_ladder(base: Scene, source: str, overrides: Sequence[str], degrees: Sequence[int],
                 refinements: Sequence[int], formulations: Sequence[str] | None = None,
                 forces: Sequence[float] | None = None, refine: str = "all",
                 caps: dict[int, int] | None = None) -> Ladder:
     """The ladder of ``source`` with ``overrides`` (resolved to ``base``), checked before any solve.
 
-    Degrees and refinements must be valid scene values, every formulation a value of
+    Degrees and refinements must be valid scene values (with ``refine`` "fillet": a rounded rim, and
+    levels within ``mesh.fillet_elements``' range), every formulation a value of
     :data:`FORMULATION_KEY`, every force one the ramp reports (``loading.report_forces_n`` or
     ``loading.force_n``; default: all of them). Raises SceneError otherwise.
     """
@@ -266,6 +298,10 @@ def plan_ladder(base: Scene, source: str, overrides: Sequence[str], degrees: Seq
             raise SceneError(f"{option}: expected at least one value, for example {option} 1,2 (got none)")
     for d in degrees:
         RULES["mesh.degree"].check("mesh.degree", d)
+    if refine not in LEVEL_NAMES:
+        raise SceneError(f"--refine {refine}: expected one of {', '.join(LEVEL_NAMES)}")
+    if refine == "fillet":
+        _check_fillet_levels(base, refinements)
     for k in refinements:
         RULES["mesh.refinement"].check("mesh.refinement", k)
     checked: list[str | None] = [None]

@@ -33,14 +33,23 @@ def markdown(title: str, ladder: Ladder, rungs: list[Rung], analysis: dict[str, 
     lines += [
         f"Scene `{ladder.source}`" + with_overrides
         + f"; degrees {ladder.degrees}, "
-        + (f"refinements {ladder.refinements} (every element size halves per step)." if ladder.refine == "all" else
-           f"rim levels {ladder.refinements} (only mesh.size_rim_mm halves per level, at the cone corners)."),
+        + _levels(ladder),
         "",
     ]
     lines += _cost_table(rungs)
     for fk, per_q in analysis.items():
         lines += _force_section(fk, per_q, rungs, analysis, tol)
     return "\n".join(lines)
+
+
+def _levels(ladder: Ladder) -> str:
+    """What the ladder's levels refine, in words."""
+    if ladder.refine == "fillet":
+        return (f"fillet levels {ladder.refinements} (only mesh.fillet_elements doubles per level: the elements "
+                "along each rounded rim's arc; the rest of the mesh stays at the scene's mesh.refinement).")
+    if ladder.refine == "rim":
+        return f"rim levels {ladder.refinements} (only mesh.size_rim_mm halves per level, at the cone corners)."
+    return f"refinements {ladder.refinements} (every element size halves per step)."
 
 
 def _cost_table(rungs: list[Rung]) -> list[str]:
@@ -89,12 +98,13 @@ def _force_section(fk: str, per_q: dict[str, Any], rungs: list[Rung], analysis: 
     lines.append("| **reference** (+- its Richardson correction) | " + " | ".join(ref_cells) + " |")
     lines += ["", "| quantity | ladder | rungs | observed order | extrapolated | change per refinement | verdict |",
               "| --- | --- | --- | ---: | ---: | --- | --- |"]
+    lv = rungs[0].level_name if rungs else "r"  # r, rim or fillet: what the levels refine
     for p in per_q.values():
         for key, e in p["estimates"].items():
             changes = ", ".join(_pct(c) for c in e["changes_rel"])
             order = f"{e['order']:.2f}" if e["order"] is not None else "-"
-            lines.append(f"| {p['label']} | {key} | r{e['refinements'][0] if e['refinements'] else '-'}"
-                         f"-r{e['refinements'][-1] if e['refinements'] else '-'} | {order} | "
+            lines.append(f"| {p['label']} | {key} | {lv}{e['refinements'][0] if e['refinements'] else '-'}"
+                         f"-{lv}{e['refinements'][-1] if e['refinements'] else '-'} | {order} | "
                          f"{fmt_value(e['limit'], p['unit'])} | {changes} | {e['verdict']} |")
     lines += ["", "Verdicts: " + "; ".join(f"{p['label']}: {p['verdict']}" for p in per_q.values()) + ".", ""]
     return lines + _usum_cost(fk, rungs, analysis, tol) + _two_rung_checks(per_q, rungs)
@@ -153,7 +163,8 @@ def _draw_force(ax: Any, per_q: dict[str, Any], by_name: dict[str, Rung], time_k
                     marker=markers.get(degree, "^"), alpha=1.0 if degree == 1 else 0.7,
                     label=f"{p['label']}, {key}{suffix}")
             for t, e, k in pts:
-                ax.annotate(f"r{k}", (t, e), textcoords="offset points", xytext=(3, 3), fontsize=7, color=color)
+                ax.annotate(f"{seq[0].level_name}{k}", (t, e), textcoords="offset points", xytext=(3, 3),
+                            fontsize=7, color=color)
 
 
 def plot(path: Path, title: str, rungs: list[Rung], analysis: dict[str, Any], time_axis: str = "wall") -> None:

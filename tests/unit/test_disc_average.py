@@ -106,3 +106,64 @@ def test_the_search_ranks_its_candidates_by_their_disc_average_not_their_point_v
     found = max_disc_average(field, top_points(MPI.COMM_WORLD, values, xy, RADIUS), RADIUS)
     assert found.at == pytest.approx([1.2, 0.7], abs=0.05) and found.value > old.value
     assert np.hypot(*(np.asarray(old.at) - [1.2, 0.7])) > 0.3  # the old rule's climb did not reach the bump
+
+
+def _spikes_and_bump(r, z):
+    """Three narrow spikes of height 10 on hills of their own, and a broad bump of height 2 at (1.2, 0.7)."""
+    spikes = [(0.6, 0.2), (0.6, 0.45), (0.85, 0.2)]
+    narrow = sum(10 * np.exp(-((r - a) ** 2 + (z - b) ** 2) / 0.02**2)
+                 + 0.5 * np.exp(-((r - a) ** 2 + (z - b) ** 2) / 0.1**2) for a, b in spikes)
+    return narrow + 2 * np.exp(-((r - 1.2) ** 2 + (z - 0.7) ** 2) / 0.3**2)
+
+
+def test_the_coarse_view_finds_what_a_finely_meshed_corner_hides_from_the_largest_point_values():
+    # A finely meshed corner has many more points than the rest: 3 x 10,000 points within 0.03 of the
+    # spikes, every one of them above the bump's largest value, fill the pool of largest point values that
+    # top_points draws from; its candidates are the spikes only, whose climbs stay on their hills. The
+    # coarse view (the field on a grid fixed in space, averaged over R) sees the bump.
+    from suture_fem.outputs.disc import coarse_starts, top_points
+
+    rng = np.random.default_rng(1)
+    rho, theta = 0.03 * np.sqrt(rng.random(30000)), 2 * np.pi * rng.random(30000)
+    centres = np.repeat([(0.6, 0.2), (0.6, 0.45), (0.85, 0.2)], 10000, axis=0)
+    dense = centres + np.column_stack([rho * np.cos(theta), rho * np.sin(theta)])
+    field = _field(_mesh(40), _spikes_and_bump)
+    xy = np.concatenate([dense, field.centre])
+    values = _spikes_and_bump(xy[:, 0], xy[:, 1])
+    assert np.sort(values)[-2400] > 2.0  # the pool of 50 x 48 largest values lies at the spikes
+    by_value = top_points(MPI.COMM_WORLD, values, xy, RADIUS)
+    assert len(by_value) == 3
+    missed = max_disc_average(field, by_value, RADIUS)
+    assert np.hypot(*(np.asarray(missed.at) - [1.2, 0.7])) > 0.3
+    coarse = coarse_starts(field, *np.array(BOX), RADIUS)
+    assert np.hypot(*(coarse[0] - [1.2, 0.7])) < RADIUS  # the coarse view's best node is at the bump
+    found = max_disc_average(field, (by_value, coarse), RADIUS)
+    assert found.at == pytest.approx([1.2, 0.7], abs=0.05) and found.value > missed.value
+
+
+def test_a_search_restricted_to_a_zone_finds_the_zone_s_largest_average_and_stays_in_it():
+    field = _field(_mesh(40), _spikes_and_bump)
+    everywhere = max_disc_average(field, np.array([[1.2, 0.6], [0.6, 0.3]]), RADIUS)
+    near_spikes = lambda c: np.hypot(c[:, 0] - 0.6, c[:, 1] - 0.3) <= 0.3  # noqa: E731
+    zone = max_disc_average(field, np.array([[1.2, 0.6], [0.6, 0.3]]), RADIUS, near_spikes)
+    assert everywhere.at == pytest.approx([1.2, 0.7], abs=0.05)
+    assert near_spikes(np.array([zone.at]))[0] and zone.value < everywhere.value
+    # the zone's best disc is the best of a fine scan of the zone (grid R/8), up to the search's resolution
+    g = np.stack(np.meshgrid(np.arange(0.3, 0.91, RADIUS / 8), np.arange(0.0, 0.61, RADIUS / 8)), -1).reshape(-1, 2)
+    scan = np.max(disc_averages(field, g, RADIUS, near_spikes))
+    assert zone.value >= scan * (1 - 1e-3)
+
+
+def test_the_distance_to_a_cone_surface_follows_its_lines_and_its_arcs():
+    from types import SimpleNamespace
+
+    from suture_fem.outputs.critical_distance import cone_distance
+
+    # a line from (0, 0) to (1, 0), then a quarter circle of radius 1 about (1, 1) from (1, 0) to (2, 1)
+    cone = SimpleNamespace(outline=[("line", ((0.0, 0.0), (1.0, 0.0))), ("arc", ((1.0, 0.0), (1.0, 1.0), (2.0, 1.0)))])
+    s = np.sqrt(0.5)
+    points = np.array([[0.5, -0.3], [1 + 1.2 * s, 1 - 1.2 * s], [1 + 0.5 * s, 1 - 0.5 * s], [1.0, 2.3]])
+    # beside the line; outside and inside the arc; beyond the arc's end, where the full circle would be 0.3 away
+    expected = [0.3, 0.2, 0.5, np.hypot(1.0, 1.3)]
+    assert cone_distance([cone], points) == pytest.approx(expected, abs=2e-3)  # 16 chords: sagitta 1.2e-3
+    assert np.all(cone_distance([], points) == np.inf)

@@ -6,7 +6,7 @@ refinement. Next to it the ledger follows maxima that have a limit: the maximum 
 than each of :data:`SINGULAR_FREE_MM` from every singular point (see
 :mod:`suture_fem.studies.convergence.singular`), and the two measures that converge by construction
 (issue 17): the peak on the resolved fillet (``seqv_fillet_pa``) and the critical-distance average
-(``seqv_cd_pa``), with their strains.
+(``seqv_cd_pa``, and ``seqv_cd_cone_pa`` with the disc near a cone), with their strains.
 """
 
 from __future__ import annotations
@@ -89,6 +89,10 @@ QUANTITIES = (
     Quantity("regions.tissue.eptoeqv_fillet", "EPTOEQV tissue, peak on the resolved fillet", "-", STRESS_TOLERANCE),
     Quantity("regions.tissue.seqv_cd_pa", "SEQV tissue, critical-distance average", "Pa", STRESS_TOLERANCE),
     Quantity("regions.tissue.eptoeqv_cd", "EPTOEQV tissue, critical-distance average", "-", STRESS_TOLERANCE),
+    Quantity("regions.tissue.seqv_cd_cone_pa", "SEQV tissue, critical-distance average near a cone", "Pa",
+             STRESS_TOLERANCE),
+    Quantity("regions.tissue.eptoeqv_cd_cone", "EPTOEQV tissue, critical-distance average near a cone", "-",
+             STRESS_TOLERANCE),
     Quantity("regions.tissue.seqv_outside_rim_pa", "SEQV tissue outside rims", "Pa"),
     Quantity("regions.tissue.eptoeqv_outside_rim", "EPTOEQV tissue outside rims", "-"),
     *(Quantity(f"ledger.tissue_seqv_pa_beyond_{beyond(d)}", f"SEQV tissue > {d:g} mm from singular points", "Pa")

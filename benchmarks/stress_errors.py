@@ -40,6 +40,12 @@ def read_ladder(folder: Path) -> dict:
     return out
 
 
+def _wrapped(head: str, items: list[str], per_line: int = 3) -> str:
+    """``head`` + the items, ``per_line`` a line (within ruff's 120 characters), closed by "},"."""
+    lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
+    return head + (",\n" + " " * 12).join(lines) + "},"
+
+
 def main() -> None:
     """Print the rungs with their bars and the table literal; write the JSON."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -70,7 +76,7 @@ def main() -> None:
         print(f"    {key!r}: {{")
         for rung in sorted(ladders[key]):
             vals = {m: (None if v is None else float(f"{v:.6g}")) for m, v in ladders[key][rung].items()}
-            print(f"        {rung!r}: {vals!r},")
+            print(_wrapped(f"        {rung!r}: {{", [f"{m!r}: {v!r}" for m, v in vals.items()]))
         print("    },")
     print("}")
     args.out.parent.mkdir(parents=True, exist_ok=True)

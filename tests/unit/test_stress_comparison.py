@@ -129,6 +129,17 @@ def test_the_comparison_carries_the_bars_and_both_columns(ladders):
     assert "| SEQV, critical-distance average near a cone | 4 | 235.5 kPa | 48 kPa +- 19 % |" in text
 
 
+def test_the_ladder_measures_include_the_near_cone_averages():
+    from suture_fem.studies.reproduce.stress_errors import LADDERS, MEASURED
+
+    assert {"seqv_cd_cone_pa", "eptoeqv_cd_cone", "seqv_cd_pa", "eptoeqv_cd"} <= set(MEASURED)
+    for ladder in LADDERS.values():
+        for values in ladder.values():
+            assert set(values) == set(MEASURED)
+            assert values["seqv_cd_cone_pa"] <= values["seqv_cd_pa"]  # the near-cone search is restricted
+            assert values["eptoeqv_cd_cone"] <= values["eptoeqv_cd"]
+
+
 def test_ratio_sensitivity_reports_the_near_cone_ratios(monkeypatch):
     """No solving: run_scene and the disc averages replaced by fakes with known values per cone count."""
     from suture_fem import pipeline

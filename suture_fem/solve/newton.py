@@ -50,6 +50,7 @@ from petsc4py import PETSc
 
 from suture_fem.scene.schema import SolverSection
 from suture_fem.solve.guard import DomainGuard, Violation
+from suture_fem.solve.linearised import Linearised
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
 from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale
@@ -68,7 +69,7 @@ FALLBACK_ORDER = ("mumps", "superlu_dist", "petsc")
 PETSC_ERROR = "petsc_error"
 
 
-class NewtonSolver:
+class NewtonSolver(Linearised):
     """SNES on T^T R(T x + g) and T^T A T, with the domain guard in the residual.
 
     ``problem`` is a scene's :class:`~suture_fem.physics.problem.Physics` (its guard is then
@@ -205,6 +206,7 @@ class NewtonSolver:
         self.A_full.assemble()
 
     def _jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
+        self.jacobian_current = True  # the factorisation SNES makes next is A at this iterate
         t0 = time.perf_counter()
         self._assemble_full_jacobian()
         self.A_full.ptap(self.reduction.T, A)
@@ -237,6 +239,7 @@ class NewtonSolver:
         :data:`PETSC_ERROR`.
         """
         self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
+        self.jacobian_current = False
         self.outside_domain = 0
         self.last_violation = None
         t0 = time.perf_counter()
@@ -299,49 +302,6 @@ class NewtonSolver:
             return self._work.norm()
         finally:
             self.timings.assembly += time.perf_counter() - t0
-
-    def load_rate(self, set_load: Any, s: float) -> Any:
-        """-dR/ds on the unknowns (a new vector), ``set_load(v)`` setting the loads at path parameter v.
-
-        The pull and the weight are dead loads, linear in s: R(u, s + 1) - R(u, s) is dR/ds at every u.
-        """
-        r0, r1 = self.b.duplicate(), self.b.duplicate()
-        try:
-            set_load(s + 1.0)
-            self._residual(self.snes, self.x, r1)
-            set_load(s)
-            self._residual(self.snes, self.x, r0)
-            r1.axpy(-1.0, r0)
-            r1.scale(-1.0)
-            return r1
-        finally:
-            set_load(s)
-            self.reduction.expand(self.x)
-            r0.destroy()
-
-    def tangent(self, rate: Any, out: Any) -> bool:
-        """Du/ds into ``out`` (state layout): A du/ds = ``rate`` by :meth:`solve_reduced`; False when it failed."""
-        dx = self.x.duplicate()
-        try:
-            if not self.solve_reduced(rate, dx):
-                return False
-            self.reduction.T.mult(dx, out)
-            out.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-            return True
-        except PETSc.Error:
-            if Interrupted.pending is not None:
-                raise Interrupted.pending from None
-            return False
-        finally:
-            dx.destroy()
-
-    def solve_reduced(self, b: Any, x: Any) -> bool:
-        """A x = b by the last Newton iteration's factorisation (after a converged solve: A there); False: failed."""
-        ksp = self.snes.getKSP()
-        t0 = time.perf_counter()
-        ksp.solve(b, x)
-        self.timings.linear_solve += time.perf_counter() - t0
-        return ksp.getConvergedReason() >= 0 and bool(np.all(np.isfinite(x.getArray(readonly=True))))
 
     def linear_failure(self) -> bool:
         """True when the last linear solve failed (e.g. a factorisation that ran out of memory)."""

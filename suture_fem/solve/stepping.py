@@ -24,6 +24,10 @@
   chosen by merit 33, with the energy line search's hand-over 30; P2 63 -> 50 (benchmarks/newton_counts.py).
 * Physical limit. A converged state is checked against ``solver.gent_limit_fraction``
   (:meth:`~suture_fem.solve.guard.DomainGuard.limit_reached`) and rejected like a failed step there.
+* Warm starts. A caller that has solved the same scene at nearby parameters (a calibration's previous
+  evaluation) may hand :func:`ramp` a start state per report force (``warm``); the step then goes
+  straight to that force and the start competes with the predictions above by merit. A Newton failure
+  from it costs that attempt only: the path goes on with its usual steps, no cutback counted.
 * Fallbacks before a cutback. A failed solve first switches the linear solver, if the factorisation
   failed, then retries once with the other line search (:mod:`suture_fem.solve.newton`); only then is
   the step cut.
@@ -61,6 +65,7 @@ def ramp(
     on_converged: Callable[..., None],
     timings: Timings | None = None,
     with_solver: bool = False,
+    warm: Callable[[float], Any] | None = None,
 ) -> RampResult:
     """Follow the scene's load path: gravity preload (if called), then the load ramp or the time history.
 
@@ -68,7 +73,8 @@ def ramp(
     (with inertia also ``time_s=t``; with ``with_solver`` also ``solver=`` the NewtonSolver, whose
     :meth:`~suture_fem.solve.newton.NewtonSolver.solve_reduced` reuses the step's factorisation); report
     points (``loading.report_forces_n``, the peak and, with
-    inertia, the end of the hold) are always hit exactly.
+    inertia, the end of the hold) are always hit exactly. ``warm(force_n)``: a start state for a report
+    force of the quasi-static pull (the state's local array, ghosts included) or None (module docstring).
     Raises SolveStopped (with every converged step already handed to on_converged) when it cannot go on.
     """
     result = RampResult(timings=timings or Timings())
@@ -82,7 +88,9 @@ def ramp(
         main = TimeHistory(physics, scene) if physics.dynamics is not None else LoadRamp(physics, scene)
         if physics.dynamics is not None:
             physics.dynamics.start_from(physics.state)
-        _Stepper(main, newton, result, on_converged, fraction, with_solver).run()
+        stepper = _Stepper(main, newton, result, on_converged, fraction, with_solver)
+        stepper.warm = warm if isinstance(main, LoadRamp) else None
+        stepper.run()
     finally:
         newton.destroy()
     return result
@@ -106,6 +114,9 @@ class _Stepper:
         self.s, self.prev_step, self.step = 0.0, 0.0, path.initial
         self.retried = False  # this step already retried with the other line search
         self.cuts_here = 0  # cutbacks in a row at the current load s
+        self.warm: Callable[[float], Any] | None = None  # start states at report forces (ramp's ``warm``)
+        self.warm_tried: set[float] = set()  # targets whose warm start was tried
+        self.warm_attempt = False  # the solve under way started from a warm start
 
     def run(self) -> None:
         """Step from s = 0 to the path's end (raises SolveStopped when the step falls below its minimum)."""
@@ -135,6 +146,8 @@ class _Stepper:
         """S + step, clipped to the next milestone, and stretched to it when only a stub would remain."""
         path = self.path
         target = next(t for t in path.targets if t > self.s + self.eps)
+        if self._warm_state(target) is not None:
+            return target
         trial = min(self.s + self.step, target)
         stub = max(path.min_step, MILESTONE_STRETCH * self.step)
         return target if target - trial < stub and target - self.s <= path.max_step + self.eps else trial
@@ -152,6 +165,15 @@ class _Stepper:
             candidates.append([(h, self.tangent)])
         elif has_previous:
             candidates.append([(h / hp, self.last - self.previous)])
+        warm = self._warm_state(trial)
+        self.warm_attempt = warm is not None
+        if warm is not None:
+            self.warm_tried.add(trial)
+            start = self.u_vec.duplicate()
+            with start.localForm() as local:
+                local.array[:] = warm
+            start.axpy(-1.0, self.last)
+            candidates.append([(1.0, start)])
         best, best_merit = [], self.newton.merit() if candidates else 0.0  # the last state, under the new load
         for terms in candidates:
             self._combine(terms)
@@ -163,6 +185,12 @@ class _Stepper:
             for _, vec in terms:
                 if vec is not self.tangent:
                     vec.destroy()
+
+    def _warm_state(self, s: float) -> Any:
+        """The caller's start state for the load s (a report force not yet tried from it), else None."""
+        if self.warm is None or s in self.warm_tried or not any(abs(s - t) <= self.eps for t in self.path.targets):
+            return None
+        return self.warm(self.path.force(s))
 
     def _combine(self, terms: list[tuple[float, Any]]) -> None:
         """Set the state to the last converged one plus the given multiples of vectors."""
@@ -237,6 +265,11 @@ class _Stepper:
         """Back to the last converged state; then the next linear solver, the other line search, or a cutback."""
         self._set_state(self.last)
         newton, result = self.newton, self.result
+        if self.warm_attempt:  # the warm start did not converge: the usual steps from the last state
+            self.warm_attempt = False
+            log.info("Newton failed from the warm start at %s (%s); stepping there as usual",
+                     self.path.describe(trial), reason)
+            return
         if newton.linear_failure() or reason == PETSC_ERROR:
             fallback = newton.next_linear_solver()
             if fallback is not None:

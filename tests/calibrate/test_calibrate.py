@@ -79,6 +79,47 @@ def test_direct_sensitivity_equals_central_difference(case):
         assert abs(dy[0, j] - fd[0]) <= 1e-5 * abs(fd[0]), (key, dy[0, j], fd[0])
 
 
+def test_a_warm_start_from_the_last_evaluation_gives_the_cold_answer_in_fewer_iterations(case):
+    # the second evaluation starts each measured force from the first's state moved by du/dp (model.py)
+    keys = ["materials.tissue_scale"]
+    base = {"materials.tissue_scale": 0.8, "loading.force_scale": 1.0}
+    moved = {**base, "materials.tissue_scale": 0.84}
+    case.solve(base, FORCES, THREAD_END, keys)
+    its = case.cost.newton_iterations
+    warm = case.solve(moved, FORCES, THREAD_END, keys)
+    its_warm, its = case.cost.newton_iterations - its, case.cost.newton_iterations
+    case.states = None  # no state to start from: from rest
+    cold = case.solve(moved, FORCES, THREAD_END, keys)
+    its_cold = case.cost.newton_iterations - its
+    assert warm[0] == pytest.approx(cold[0], rel=1e-9)
+    assert warm[1] == pytest.approx(cold[1], rel=1e-6)  # du/dp by a factorisation at the converged state
+    assert its_warm <= its_cold / 2, (its_warm, its_cold)
+
+
+def test_a_failed_warm_start_costs_that_attempt_only(case, monkeypatch, caplog):
+    # Newton made to fail from the first warm start: the ramp goes on with its usual steps, same answer
+    from suture_fem.solve import stepping
+
+    solve, failed = stepping._Stepper._solve, []
+
+    def fail_first_warm(self):
+        if self.warm_attempt and not failed:
+            failed.append(self.path.force(self.s))
+            return False, 3, "DIVERGED_FOR_THE_TEST"
+        return solve(self)
+
+    base = {"materials.tissue_scale": 0.8, "loading.force_scale": 1.0}
+    moved = {**base, "materials.tissue_scale": 0.84}
+    case.states = None
+    cold = case.solve(moved, FORCES, THREAD_END, [])[0]
+    case.solve(base, FORCES, THREAD_END, ["materials.tissue_scale"])
+    monkeypatch.setattr(stepping._Stepper, "_solve", fail_first_warm)
+    with caplog.at_level("INFO", logger="suture_fem"):
+        warm = case.solve(moved, FORCES, THREAD_END, ["materials.tissue_scale"])[0]
+    assert failed == [0.0] and "failed from the warm start" in caplog.text and "cutting" not in caplog.text
+    assert warm == pytest.approx(cold, rel=1e-9)
+
+
 @pytest.mark.long  # about 20 s CPU: five ramps and the stress measures' expressions
 def test_stress_measure_sensitivity_equals_difference_of_two_solves(case):
     """The tissue's critical-distance averages: the direct method's du/dp through a central difference of the

@@ -2,7 +2,10 @@
 
 One :class:`Case` is one mesh (a cone count and the geometric values) with its physics built once;
 every evaluation at new parameter values sets the parameters' Constants, starts from rest and
-follows one load ramp that stops at every measured force (no form is compiled again). At each
+follows one load ramp that stops at every measured force (no form is compiled again). From the second
+evaluation of a case on, each measured force is first tried straight from the previous evaluation's
+state there, moved by its sensitivities: u(p) + du/dp (p' - p) (a warm start,
+:func:`~suture_fem.solve.stepping.ramp`'s ``warm``); the usual steps take over where Newton fails from it. At each
 measured force the prediction (the thread end's displacement, or USUM) is read, and its sensitivity to
 every parameter that is a Constant of the forms is computed by the direct method
 (:mod:`suture_fem.studies.calibrate.sensitivity`). A geometric key changes the mesh: its sensitivity
@@ -65,7 +68,32 @@ class Case:
         tagged = meshmod.create_mesh(comm, scene.geometry, scene.mesh)
         self.physics = build_physics(tagged, scene)
         self.sensitivity = Sensitivity(self.physics, scene.output)
+        self.states: tuple[dict[str, float], list[str], dict[float, Any]] | None = None  # for warm starts
         cost.meshes += 1
+
+    def _warm_start(self, values: dict[str, float]) -> Any:
+        """Start states at the measured forces from the last evaluation and its du/dp (None when not possible).
+
+        Possible when the last evaluation set the same keys and every key that changed had its du/dp.
+        """
+        if self.states is None:
+            return None
+        old, keys, states = self.states
+        if set(old) != set(values) or any(values[k] != old[k] and k not in keys for k in values):
+            return None
+        steps = [(j, values[k] - old[k]) for j, k in enumerate(keys) if k in values and values[k] != old[k]]
+
+        def start(force_n: float) -> Any:
+            found = states.get(round(force_n, 9))
+            if found is None:
+                return None
+            u, changes = found
+            u = u.copy()
+            for j, step in steps:
+                u += step * changes[j]
+            return u
+
+        return start
 
     def solve(self, values: dict[str, float], forces: list[float], quantity: str,
               direct: list[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -88,11 +116,18 @@ class Case:
         scene = with_values(self.scene, {"loading.force_n": max(forces), "loading.report_forces_n": sorted(forces)})
         at: dict[float, tuple[list[float], list[np.ndarray]]] = {}
 
+        states: dict[float, Any] = {}
+
         def on_converged(force_n: float, report: bool, time_s: float | None = None, solver: Any = None) -> None:
             if report:  # the Newton solver's own factorisation gives du/dp (none is added)
                 at[round(force_n, 9)] = self.sensitivity.at_state_many(quantities, direct, solver)
+                states[round(force_n, 9)] = (physics.state.x.array.copy(),
+                                             [c.copy() for c in self.sensitivity.last_changes])
 
-        result = ramp(physics, scene, on_converged, with_solver=True)
+        warm = self._warm_start(values)
+        self.states = None  # a ramp that stops half-way leaves no states to start from
+        result = ramp(physics, scene, on_converged, with_solver=True, warm=warm)
+        self.states = (dict(values), list(direct), states)
         self.cost.ramps += 1
         self.cost.newton_iterations += result.newton_iterations
         self.cost.load_steps += len(result.steps)

@@ -46,6 +46,7 @@ class Sensitivity:
         expressions are compiled at the first use.
         """
         self.physics, self.output = physics, output
+        self.last_changes: list[np.ndarray] = []  # du/dp of the keys of the last at_state_many, state arrays
         self._measures: TissueMeasures | None = None
         self.reduction = Reduction(physics)
         self.J_form = physics.form("jacobian")
@@ -112,6 +113,7 @@ class Sensitivity:
         if not keys:
             return values, out
         changes = self.state_derivatives(keys, solver)
+        self.last_changes = changes
         for j, (key, change) in enumerate(zip(keys, changes)):
             for i, quantity in enumerate(quantities):
                 if quantity in centres:

@@ -70,6 +70,8 @@ def test_the_markdown_says_where_the_tissue_wide_averages_sit():
                              uncalibrated={2: _results(100e3, 1.0, 400e3, 1.5, strain_near_cone=0.9),
                                            4: _results(40e3, 0.8, 300e3, 1.2, strain_near_cone=0.855)})
     assert "not at a cone for EPTOEQV uncalibrated 2 cones at" in where_sentence(both)
+    one = stress_comparison({n: _results(100e3 / n, 1.0 / n, 400e3, 1.5, strain_near_cone=0.9 / n) for n in (1, 2, 4)})
+    assert "EPTOEQV 1 cone at (0.159, 27.29), 2 cones at" in where_sentence(one)
 
 
 def _solved(cones, seqv_cd, eptoeqv_cd, refinement=0, scale=1.0):

@@ -177,7 +177,8 @@ def where_sentence(stress: dict[str, Any]) -> str:
             w, c = rows.get(wide, {}).get("at_mm", {}), rows.get(near, {}).get("at_mm", {})
             both_at = [n for n in sorted(w) if w[n] and c.get(n)]
             compared = compared or bool(both_at)
-            places = [f"{n} cones at ({w[n][0]:.3g}, {w[n][1]:.4g})" for n in both_at if w[n] != c[n]]
+            places = [f"{n} cone{'s' if n != 1 else ''} at ({w[n][0]:.3g}, {w[n][1]:.4g})" for n in both_at
+                      if w[n] != c[n]]
             if places:
                 label = dict(MEASURES)[wide].split(",")[0]
                 away.append(" ".join(filter(None, (label, title))) + " " + ", ".join(places))

@@ -36,8 +36,9 @@ COMMON = ["--degrees", "1,2", "--refinements", "0,1,2", "--cap", "2=1", "--force
 #: name -> (title, every argument after the scene name). Not run by default (--only NAME).
 FILLET = ["--set", "geometry.cone_fillet_mm=0.04", "--degrees", "2"]
 ONE_CONE = ["--set", "geometry.cones=1", "--set", "loading.force_n=1", "--forces", "1"]
-#: refinement 1 and fillet level 3: 8 x 2^3 elements along each arc, doubled by the refinement = 128
-FAR_FIELD = ["--set", "mesh.refinement=1", "--refinements", "3", "--refine", "fillet"]
+#: refinement 1 and fillet level 4: 8 x 2^4 elements along each arc, doubled by the refinement = 256, the
+#: finest fillet level's count at refinement 0 (level 5)
+FAR_FIELD = ["--set", "mesh.refinement=1", "--refinements", "4", "--refine", "fillet"]
 STRESS_LADDERS = {
     "stress-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2", [*FILLET, "--set", "geometry.cones=1", "--set",
                                                            "loading.force_n=1", "--forces", "1", "--refinements",
@@ -46,15 +47,15 @@ STRESS_LADDERS = {
                            [*FILLET, "--set", "geometry.cones=1", "--set", "loading.force_n=1", "--forces", "1",
                             "--refinements", "0,1,2", "--formulations", "mixed"]),
     "stress-4cones-p2": ("4 cones, fillet 0.04 mm, P2", [*FILLET, "--forces", "1,4", "--refinements", "0,1"]),
-    # only the fillet refined (8..128 elements along each arc, the far field at refinement 0), and the
-    # far-field check: the finest arc (128 elements) at refinement 1
+    # only the fillet refined (8..256 elements along each arc, the far field at refinement 0), and the
+    # far-field check: the finest arc (256 elements) at refinement 1
     "fillet-4cones-p2": ("4 cones, fillet 0.04 mm, P2, only the fillet refined",
-                         [*FILLET, "--forces", "1,4", "--refinements", "0,1,2,3,4", "--refine", "fillet"]),
+                         [*FILLET, "--forces", "1,4", "--refinements", "0,1,2,3,4,5", "--refine", "fillet"]),
     "fillet-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2, only the fillet refined",
-                        [*FILLET, *ONE_CONE, "--refinements", "0,1,2,3,4", "--refine", "fillet"]),
-    "fillet-4cones-farfield": ("4 cones, fillet 0.04 mm, P2 r1, 128 elements along each arc",
+                        [*FILLET, *ONE_CONE, "--refinements", "0,1,2,3,4,5", "--refine", "fillet"]),
+    "fillet-4cones-farfield": ("4 cones, fillet 0.04 mm, P2 r1, 256 elements along each arc",
                                [*FILLET, *FAR_FIELD, "--forces", "1,4"]),
-    "fillet-1cone-farfield": ("1 cone, 1 N, fillet 0.04 mm, P2 r1, 128 elements along each arc",
+    "fillet-1cone-farfield": ("1 cone, 1 N, fillet 0.04 mm, P2 r1, 256 elements along each arc",
                               [*FILLET, *ONE_CONE, *FAR_FIELD]),
 }
 SUMMARY = ("usum_mm", "regions.tissue.seqv_pa", "regions.tissue.seqv_outside_rim_pa",

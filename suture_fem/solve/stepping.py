@@ -165,15 +165,15 @@ class _Stepper:
             candidates.append([(h, self.tangent)])
         elif has_previous:
             candidates.append([(h / hp, self.last - self.previous)])
-        warm = self._warm_state(trial)
-        self.warm_attempt = warm is not None
+        warm, warm_terms = self._warm_state(trial), None
         if warm is not None:
             self.warm_tried.add(trial)
             start = self.u_vec.duplicate()
             with start.localForm() as local:
                 local.array[:] = warm
             start.axpy(-1.0, self.last)
-            candidates.append([(1.0, start)])
+            warm_terms = [(1.0, start)]
+            candidates.append(warm_terms)
         best, best_merit = [], self.newton.merit() if candidates else 0.0  # the last state, under the new load
         for terms in candidates:
             self._combine(terms)
@@ -181,6 +181,7 @@ class _Stepper:
             if merit < best_merit:
                 best, best_merit = terms, merit
         self._combine(best)
+        self.warm_attempt = best is warm_terms and warm_terms is not None  # a failure then costs this attempt only
         for terms in candidates:
             for _, vec in terms:
                 if vec is not self.tangent:

@@ -96,6 +96,20 @@ def test_a_warm_start_from_the_last_evaluation_gives_the_cold_answer_in_fewer_it
     assert its_warm <= its_cold / 2, (its_warm, its_cold)
 
 
+def test_a_solve_of_no_iteration_gives_its_sensitivities_from_a_factorisation_of_its_own_state(case):
+    # the same values again: the warm start is the converged state, Newton takes no iteration and has
+    # factorised nothing in this ramp; du/dp must still be A(u)^-1 dR/dp at that state (linearised.py)
+    keys = ["materials.tissue_scale", "loading.force_scale"]
+    values = {"materials.tissue_scale": 0.8, "loading.force_scale": 1.0}
+    case.states = None
+    first = case.solve(values, FORCES, THREAD_END, keys)
+    its = case.cost.newton_iterations
+    again = case.solve(values, FORCES, THREAD_END, keys)
+    assert case.cost.newton_iterations == its  # no iteration at all
+    assert again[0] == pytest.approx(first[0], rel=1e-12)
+    assert again[1] == pytest.approx(first[1], rel=1e-6)
+
+
 def test_a_failed_warm_start_costs_that_attempt_only(case, monkeypatch, caplog):
     # Newton made to fail from the first warm start: the ramp goes on with its usual steps, same answer
     from suture_fem.solve import stepping

@@ -59,6 +59,29 @@ def test_results_are_complete_finite_and_balanced(runs, n):
     assert json.loads((folder / "results.json").read_text())["status"] == "converged"
 
 
+@pytest.mark.parametrize("n", CONES)
+def test_the_near_cone_averages_lie_near_a_cone_and_below_the_tissue_wide_ones(runs, n):
+    from suture_fem.geometry.section import Geometry
+    from suture_fem.outputs.critical_distance import CONE_ZONE_RADII, cone_distance
+    from suture_fem.pipeline import load_scene
+
+    res, _ = runs[n]
+    cones = Geometry.from_section(load_scene("paper", FAST + RAMP + [f"geometry.cones={n}"]).geometry).cones
+    radius = res["scene"]["output"]["critical_distance_mm"]
+    for rec in res["at_forces"]:
+        tissue = rec["regions"]["tissue"]
+        for key in ("seqv_cd_pa", "eptoeqv_cd"):
+            near = key.replace("_cd", "_cd_cone")
+            if n == 0:  # no cone: no near-cone value
+                assert near not in tissue
+                continue
+            centre = np.array([tissue[near + "_at_mm"]])
+            assert cone_distance(cones, centre)[0] <= CONE_ZONE_RADII * radius + 1e-9
+            assert 0 < tissue[near] <= tissue[key]
+            if cone_distance(cones, np.array([tissue[key + "_at_mm"]]))[0] <= CONE_ZONE_RADII * radius:
+                assert tissue[near] == tissue[key]  # the tissue-wide disc is near a cone: the same disc
+
+
 def test_usum_falls_as_cones_are_added(runs):
     usum = [at(runs[n][0], 1.0)["usum_mm"] for n in CONES]
     assert all(a > b for a, b in zip(usum, usum[1:])), usum

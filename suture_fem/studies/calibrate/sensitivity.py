@@ -103,6 +103,7 @@ class Sensitivity:
         ``with_solver``), whose factorisation is then reused; None: A is assembled and factorised here.
         """
         values, centres = [], {}
+        self.last_changes = []
         for quantity in quantities:
             if quantity in (SEQV_CD, EPTOEQV_CD):
                 value, centres[quantity] = self.measures().maximum(quantity)

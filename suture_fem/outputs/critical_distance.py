@@ -38,7 +38,9 @@ CONE_NAMES = {"seqv_cd_pa": "seqv_cd_cone_pa", "eptoeqv_cd": "eptoeqv_cd_cone"}
 #: "Near a cone": the disc's centre at most this many critical distances from a cone's surface, so the
 #: disc reaches the band of the tissue the cone's surface strains. The concentrations the cones do not
 #: cause lie farther: the thread's exit from the pulled face is 3 mm beyond the last cone's apex on the
-#: paper scene (30 critical distances at the default 0.1 mm).
+#: paper scene (30 critical distances at the default 0.1 mm). The zone grows with the critical
+#: distance: from 1 mm on it reaches that exit on the paper scene; and a near-cone maximum whose disc
+#: sits on the zone's edge lies on the slope of a concentration outside it (its ``_at_mm`` shows it).
 CONE_ZONE_RADII = 3.0
 
 

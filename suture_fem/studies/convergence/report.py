@@ -115,14 +115,17 @@ def _usum_cost(fk: str, rungs: list[Rung], analysis: dict[str, Any], tol: float)
     usum = within(analysis, rungs, float(fk), "usum_mm", tol)
     if not usum:
         return []
+    level = "refinement " if not rungs or rungs[0].level_name == "r" else rungs[0].level_name  # fillet3, rim1
     return [f"USUM within {100 * tol:g} % of the reference: " + "; ".join(
-        f"{k} from refinement {v['refinement']} ({_num(v['wall_time_s'])} s wall, {_num(v['cpu_time_s'])} s CPU, "
+        f"{k} from {level}{v['refinement']} ({_num(v['wall_time_s'])} s wall, {_num(v['cpu_time_s'])} s CPU, "
         f"{v['dofs']} dofs, "
         f"error {_pct(v['error_rel'])})" for k, v in usum.items()) + ".", ""]
 
 
 def _two_rung_checks(per_q: dict[str, Any], rungs: list[Rung]) -> list[str]:
     """Whether `run --error-estimate`'s two-rung estimate of USUM covers the error the ledger measures."""
+    if any(r.level_name != "r" for r in rungs):  # the estimate is of a global refinement, not a local one
+        return []
     checks = [(r, per_q["usum_mm"]["rungs"].get(r.name, {})) for r in rungs]
     checks = [(r, e) for r, e in checks if e.get("two_rung_estimate_rel") is not None and "error_rel" in e]
     if not checks:

@@ -39,6 +39,9 @@ ONE_CONE = ["--set", "geometry.cones=1", "--set", "loading.force_n=1", "--forces
 #: refinement 1 and fillet level 4: 8 x 2^4 elements along each arc, doubled by the refinement = 256, the
 #: finest fillet level's count at refinement 0 (level 5)
 FAR_FIELD = ["--set", "mesh.refinement=1", "--refinements", "4", "--refine", "fillet"]
+#: refinement 1, 4 x 2^k elements along each arc, doubled by the refinement: 8 to 512 (the key's maximum 256)
+R1_FILLET = ["--set", "mesh.refinement=1", "--set", "mesh.fillet_elements=4", "--refinements", "0,1,2,3,4,5,6",
+             "--refine", "fillet"]
 STRESS_LADDERS = {
     "stress-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2", [*FILLET, "--set", "geometry.cones=1", "--set",
                                                            "loading.force_n=1", "--forces", "1", "--refinements",
@@ -53,6 +56,11 @@ STRESS_LADDERS = {
                          [*FILLET, "--forces", "1,4", "--refinements", "0,1,2,3,4,5", "--refine", "fillet"]),
     "fillet-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2, only the fillet refined",
                         [*FILLET, *ONE_CONE, "--refinements", "0,1,2,3,4,5", "--refine", "fillet"]),
+    # the same at refinement 1 from 4 elements per arc at refinement 0 (8 at refinement 1) to 512
+    "fillet-4cones-p2-r1": ("4 cones, fillet 0.04 mm, P2 r1, only the fillet refined",
+                            [*FILLET, *R1_FILLET, "--forces", "1,4"]),
+    "fillet-1cone-p2-r1": ("1 cone, 1 N, fillet 0.04 mm, P2 r1, only the fillet refined",
+                           [*FILLET, *ONE_CONE, *R1_FILLET]),
     "fillet-4cones-farfield": ("4 cones, fillet 0.04 mm, P2 r1, 256 elements along each arc",
                                [*FILLET, *FAR_FIELD, "--forces", "1,4"]),
     "fillet-1cone-farfield": ("1 cone, 1 N, fillet 0.04 mm, P2 r1, 256 elements along each arc",

@@ -41,8 +41,10 @@ from suture_fem.support.io import read_json, write_json
 
 log = logging.getLogger("suture_fem")
 
-#: Version of what a rung records; a rung folder written by another version is solved again.
-RUNG_VERSION = 3
+#: Version of what a rung records; a rung folder written by another version is solved again. Any change
+#: to what an output means or which outputs a rung records bumps it (4: the near-cone critical-distance
+#: averages and the disc search's coarse view, commit 2910b9e).
+RUNG_VERSION = 4
 #: Scene key of the incompressibility formulation, where the scene has one.
 FORMULATION_KEY = "effects.incompressibility"
 #: What a ladder refines (``--refine``) -> the prefix of its rungs' levels in names and labels.

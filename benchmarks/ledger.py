@@ -43,12 +43,9 @@ FAR_FIELD = ["--set", "mesh.refinement=1", "--refinements", "4", "--refine", "fi
 R1_FILLET = ["--set", "mesh.refinement=1", "--set", "mesh.fillet_elements=4", "--refinements", "0,1,2,3,4,5,6",
              "--refine", "fillet"]
 STRESS_LADDERS = {
-    "stress-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2", [*FILLET, "--set", "geometry.cones=1", "--set",
-                                                           "loading.force_n=1", "--forces", "1", "--refinements",
-                                                           "0,1,2"]),
+    "stress-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2", [*FILLET, *ONE_CONE, "--refinements", "0,1,2"]),
     "stress-1cone-mixed": ("1 cone, 1 N, fillet 0.04 mm, P2/P1 mixed",
-                           [*FILLET, "--set", "geometry.cones=1", "--set", "loading.force_n=1", "--forces", "1",
-                            "--refinements", "0,1,2", "--formulations", "mixed"]),
+                           [*FILLET, *ONE_CONE, "--refinements", "0,1,2", "--formulations", "mixed"]),
     "stress-4cones-p2": ("4 cones, fillet 0.04 mm, P2", [*FILLET, "--forces", "1,4", "--refinements", "0,1"]),
     # only the fillet refined (8..256 elements along each arc, the far field at refinement 0), and the
     # far-field check: the finest arc (256 elements) at refinement 1

@@ -66,7 +66,8 @@ def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: On
 
     ``on_report(force_n, outputs)``, if given, is called (on every rank) at each reported force with
     the Outputs of the solved state, for pictures: ``outputs.physics.u`` is the displacement and
-    ``outputs.cell_maxima()`` the von Mises stress and equivalent strain per cell.
+    ``outputs.cell_maxima()`` the von Mises stress and equivalent strain per cell; ``outputs.newton`` is
+    the Newton solver that just converged (None in the report of a stopped ramp's last state).
     The Results read like results.json's dict (``results["usum_mm"]``); ``results.to_dict()`` is that dict.
     Raises SolveStopped after writing the converged part when the ramp cannot be completed.
     """
@@ -76,7 +77,7 @@ def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: On
     steps = LoadSteps(scene, outputs, out, clock, on_report)
     try:
         steps.open_fields()
-        history = ramp(outputs.physics, scene, steps.converged, clock.timings)
+        history = ramp(outputs.physics, scene, steps.converged, clock.timings, with_solver=True)
         steps.close()
     except BaseException as exc:
         steps.ended(exc)
@@ -150,11 +151,15 @@ class LoadSteps:
         if self.fields_path is not None:
             self.writer = FieldWriter(self.outputs.physics, self.outputs, str(self.fields_path))
 
-    def converged(self, force_n: float, report: bool, time_s: float | None = None) -> None:
+    def converged(self, force_n: float, report: bool, time_s: float | None = None, solver: Any = None) -> None:
         """After every converged step of the ramp (``time_s``: with inertia, the time reached)."""
         self.results.step(force_n, self.outputs.thread_end_displacement_mm(), time_s)
         if report:
-            self.report(force_n)
+            self.outputs.newton = solver  # for on_report only while the solver is alive
+            try:
+                self.report(force_n)
+            finally:
+                self.outputs.newton = None
         self.save()
 
     def report(self, force_n: float) -> None:

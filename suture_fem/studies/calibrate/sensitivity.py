@@ -7,8 +7,9 @@ act on the unknowns SNES solves for (u = T x, :class:`~suture_fem.solve.reductio
 fixed dofs stay fixed. The calibration's ramps hand the converged Newton solver to their report
 callback (:func:`~suture_fem.solve.stepping.ramp` with ``with_solver``), and A's factorisation from
 its last iteration (inside the solve's tolerance of the converged state) solves for every parameter
-of that state: no assembly, no factorisation. Callers without a solver (reproduce's USUM bands, after
-a run) get A assembled once more at the state and factorised once (MUMPS LU).
+of that state: no assembly, no factorisation (reproduce's USUM bands get it too, through
+``outputs.newton``). Callers without a solver (a stopped ramp's last report) get A assembled once more
+at the state and factorised once (MUMPS LU).
 
 From du/dp: the thread end's displacement is a linear functional of u (the same form, evaluated at
 du/dp); USUM is max |u_i| over the nodes, whose derivative at its node i* is u_i* . du_i*/dp / |u_i*|; the

@@ -52,8 +52,8 @@ def solve_case(scene: Scene, folder: Path, comm: Any, fields_dir: Path | None = 
 
     ``fields_dir``: the state at every reported force is also written there (:func:`field_path`) and
     kept in "grids" (rank 0). ``band`` (key, 95 % half-interval of the key): USUM's linearised band at
-    every reported force, |dUSUM/dkey| (direct method, one factorisation of the Jacobian per state)
-    times the half-interval, in "bands" {force: half-width (mm)}.
+    every reported force, |dUSUM/dkey| (direct method, with the factorisation the Newton solve has
+    just made at the state) times the half-interval, in "bands" {force: half-width (mm)}.
     """
     from suture_fem import plots
     from suture_fem.pipeline import run_scene
@@ -68,7 +68,8 @@ def solve_case(scene: Scene, folder: Path, comm: Any, fields_dir: Path | None = 
             from suture_fem.studies.calibrate.sensitivity import Sensitivity
 
             made[:] = made or [Sensitivity(outputs.physics)]
-            bands[round(force_n, 6)] = abs(float(made[0].at_state("usum_mm", [band[0]])[1][0])) * band[1]
+            slope = made[0].at_state("usum_mm", [band[0]], outputs.newton)[1][0]  # Newton's factorisation
+            bands[round(force_n, 6)] = abs(float(slope)) * band[1]
         if fields_dir is None:
             return
         grid = plots.field_grid(outputs)

@@ -167,3 +167,18 @@ def test_the_distance_to_a_cone_surface_follows_its_lines_and_its_arcs():
     expected = [0.3, 0.2, 0.5, np.hypot(1.0, 1.3)]
     assert cone_distance([cone], points) == pytest.approx(expected, abs=2e-3)  # 16 chords: sagitta 1.2e-3
     assert np.all(cone_distance([], points) == np.inf)
+
+
+def test_the_largest_value_per_point_equals_numpy_s_maximum_at():
+    # CellField.at takes the larger value where a point lies in two cells (an edge), sorted or not
+    from suture_fem.outputs.disc import _max_into
+
+    rng = np.random.default_rng(0)
+    for trial in range(50):
+        n, m = int(rng.integers(0, 60)), int(rng.integers(1, 20))
+        idx = np.sort(rng.integers(0, m, n)) if trial % 2 else rng.integers(0, m, n)
+        vals, start = rng.normal(size=n), np.where(rng.random(m) < 0.5, -np.inf, rng.normal(size=m))
+        expected, got = start.copy(), start.copy()
+        np.maximum.at(expected, idx, vals)
+        _max_into(got, idx, vals)
+        assert np.array_equal(got, expected)

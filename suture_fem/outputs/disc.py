@@ -205,12 +205,12 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
     """:func:`disc_averages` at centres of the fixed grids, each computed once per ``known`` (collective)."""
     unit = radius * GRID_LEVELS[-1][0]  # every level's spacing is a multiple of the finest
     keys = [tuple(k) for k in np.round(grid / unit).astype(np.int64).tolist()]
-    new = [i for i, k in enumerate(keys) if k not in known]  # the same on every rank: the same keys
+    ok = allowed(grid) if allowed is not None else np.ones(len(grid), dtype=bool)
+    new = [i for i, k in enumerate(keys) if ok[i] and k not in known]  # the same on every rank: the same keys
     if new:
         for i, v in zip(new, disc_averages(field, grid[new], radius)):
             known[keys[i]] = float(v)
-    out = np.array([known[k] for k in keys])
-    return out if allowed is None else np.where(allowed(grid), out, -np.inf)
+    return np.array([known[k] if ok[i] else -np.inf for i, k in enumerate(keys)])
 
 
 def _climb(field: CellField, centre: np.ndarray, value: float, h: float, half: int, radius: float,

@@ -117,6 +117,7 @@ class _Stepper:
         self.warm: Callable[[float], Any] | None = None  # start states at report forces (ramp's ``warm``)
         self.warm_tried: set[float] = set()  # targets whose warm start was tried
         self.warm_attempt = False  # the solve under way started from a warm start
+        self._warm_built: tuple[float | None, Any] = (None, None)  # (s, the caller's state there)
 
     def run(self) -> None:
         """Step from s = 0 to the path's end (raises SolveStopped when the step falls below its minimum)."""
@@ -188,10 +189,16 @@ class _Stepper:
                     vec.destroy()
 
     def _warm_state(self, s: float) -> Any:
-        """The caller's start state for the load s (a report force not yet tried from it), else None."""
+        """The caller's start state for the load s (a report force not yet tried from it), else None.
+
+        Asked by :meth:`_next_trial` and again by :meth:`_predict` for the same s: the caller's state is
+        built once per s.
+        """
         if self.warm is None or s in self.warm_tried or not any(abs(s - t) <= self.eps for t in self.path.targets):
             return None
-        return self.warm(self.path.force(s))
+        if self._warm_built[0] != s:
+            self._warm_built = (s, self.warm(self.path.force(s)))
+        return self._warm_built[1]
 
     def _combine(self, terms: list[tuple[float, Any]]) -> None:
         """Set the state to the last converged one plus the given multiples of vectors."""

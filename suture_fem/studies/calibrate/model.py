@@ -43,14 +43,13 @@ KEEP_CASES = 6
 
 @dataclass
 class Cost:
-    """What the calibration's evaluations cost: ramps, Newton iterations, factorisations, time."""
+    """What the calibration's evaluations cost: ramps, Newton iterations, time (no factorisations of its own)."""
 
     evaluations: int = 0
     ramps: int = 0
     meshes: int = 0
     newton_iterations: int = 0
     load_steps: int = 0
-    sensitivity_factorisations: int = 0
     wall_time_s: float = 0.0
     cpu_time_s: float = 0.0
 

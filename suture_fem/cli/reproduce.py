@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.pipeline import load_scene
+from suture_fem.scene.load import parse_override
 from suture_fem.studies.reproduce import SCENE, reproduce
 from suture_fem.studies.reproduce.calibration import DEFAULT, parse_key
 from suture_fem.studies.reproduce.paper import CONES, LABELS
@@ -78,7 +79,7 @@ def reproduce_command(args: argparse.Namespace, comm: Any) -> int:
     if args.max_evaluations < 1:
         raise SceneError(f"--max-evaluations {args.max_evaluations}: expected an integer >= 1")
     jobs = _jobs(args.jobs, comm)
-    keys = {o.partition("=")[0].strip() for o in args.overrides}
+    keys = {parse_override(o)[0] for o in args.overrides}
     fixed = frozenset(k for k in keys if k.startswith("mesh.")) if args.mesh == "rungs" else None
     # the rungs' error estimates were measured on the built-in scene: not shown for another geometry or material
     estimates = args.scene == SCENE and not any(k.split(".")[0] in ("geometry", "mesh", "materials", "effects")

@@ -58,7 +58,7 @@ def _rungs(info: dict[str, Any]) -> str:
 def _discretisation(r: dict[str, Any]) -> str:
     """USUM's estimated discretisation error on its rung, as shown after the value ("" where none)."""
     e = r.get("usum_discretisation_error")
-    return "" if not e else f" (mesh {pct(e['rel']).replace(' %', '')} %)"
+    return "" if not e else f" (mesh {pct(e['rel'])})"
 
 
 def _discretisation_text(cmp: dict[str, Any]) -> str:

@@ -19,8 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from suture_fem.scene import Scene
-
 
 @dataclass(frozen=True)
 class Rung:
@@ -73,18 +71,3 @@ def rung_values(rung: Rung | None, fixed: frozenset[str] | set[str] = frozenset(
     """The rung's scene keys but those the user set (``fixed``: dotted keys given with ``--set``)."""
     return {} if rung is None else {k: v for k, v in rung.values.items() if k not in fixed}
 
-
-def rung_applies(rung: Rung | None, scene: Scene) -> bool:
-    """True when ``scene`` (one cone count's case) is solved on exactly the rung's mesh."""
-    return rung is not None and all(scene.get(k) == v for k, v in rung.values.items())
-
-
-def usum_error(cones: int, force_n: float, scene: Scene | None = None) -> float | None:
-    """The estimated relative error of USUM at ``cones``, ``force_n`` on its rung; None when unknown.
-
-    With ``scene`` (the case as solved), None also when the case was not solved on the rung's mesh.
-    """
-    rung = RUNGS.get(cones)
-    if rung is None or (scene is not None and not rung_applies(rung, scene)):
-        return None
-    return rung.usum_error.get(round(force_n, 6))

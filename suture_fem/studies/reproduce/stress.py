@@ -143,10 +143,7 @@ def stress_markdown(stress: dict[str, Any] | None) -> list[str]:
              "Ours +- the error bar (" + stress["error_bars"] + "; `n.m.`: no ladder of the case measured). The "
              "raw maxima are mesh-dependent at a sharp rim (no limit under refinement).", "",
              where_sentence(stress), ""]
-    both = "uncalibrated" in stress
-    columns = [("calibrated" if both else "as solved", stress)]
-    columns += [("uncalibrated", stress["uncalibrated"])] if both else []
-    for title, col in columns:
+    for title, col in _columns(stress, "as solved"):
         lines += [f"**{title}**: {col['answer']}.", "", "| measure | cones | paper | ours | fall 2 to 4 (paper) "
                   "| fall 2 to 4 (ours) |", "| --- | ---: | ---: | ---: | ---: | ---: |"]
         for row in col["rows"]:
@@ -162,16 +159,21 @@ def stress_markdown(stress: dict[str, Any] | None) -> list[str]:
     return lines
 
 
+def _columns(stress: dict[str, Any], alone: str) -> list[tuple[str, dict[str, Any]]]:
+    """(title, column): calibrated and uncalibrated when both were solved, else the one column titled ``alone``."""
+    if "uncalibrated" not in stress:
+        return [(alone, stress)]
+    return [("calibrated", stress), ("uncalibrated", stress["uncalibrated"])]
+
+
 def where_sentence(stress: dict[str, Any]) -> str:
     """One sentence: what the near-cone rows are, and where the tissue-wide averages sit when not at a cone.
 
     A tissue-wide average is at a cone when its disc is the near-cone one (the same centre); otherwise the
     sentence gives its disc's centre (r, z) per column and cone count.
     """
-    both = "uncalibrated" in stress
-    columns = [("calibrated" if both else "", stress)] + ([("uncalibrated", stress["uncalibrated"])] if both else [])
     away, compared = [], False
-    for title, col in columns:
+    for title, col in _columns(stress, ""):
         rows = {row["measure"]: row for row in col["rows"]}
         for wide, near in CONE_NAMES.items():
             w, c = rows.get(wide, {}).get("at_mm", {}), rows.get(near, {}).get("at_mm", {})

@@ -31,6 +31,9 @@ log = logging.getLogger("suture_fem")
 
 #: The parameter ``reproduce`` calibrates unless told otherwise.
 DEFAULT = "materials.tissue_scale"
+#: Its calibrated value in docs/reproduction.md, where the calibrated scene's mesh errors and the stress
+#: ladders (:mod:`~suture_fem.studies.reproduce.stress_errors`) were measured.
+MEASURED_SCALE = 0.3112
 #: Three parameters that each scale the tissue's global compliance: the tissue's stiffness, the clamped
 #: outer radius (the hypodermis thickness moves the clamped outer surface: radius = hypodermis + dermis
 #: + epidermis), the force.

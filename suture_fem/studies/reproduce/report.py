@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from suture_fem.studies.reproduce.calibration import DEFAULT, MEASURED_SCALE
 from suture_fem.studies.reproduce.paper import LABELS
 from suture_fem.studies.reproduce.stress import stress_markdown
+from suture_fem.studies.reproduce.stress_errors import SCALE_TOLERANCE
 
 
 def fmt(q: str, v: Any) -> str:
@@ -183,6 +185,6 @@ def _calibration_text(cal: dict[str, Any]) -> str:
 
 
 def _near_measured_calibration(cal: dict[str, Any]) -> bool:
-    """A calibrated materials.tissue_scale within 2 % of 0.3112, where the softer scene's errors were measured."""
-    return (cal.get("status") == "calibrated" and cal.get("key") == "materials.tissue_scale"
-            and abs(float(cal.get("value", 0.0)) / 0.3112 - 1.0) <= 0.02)
+    """A calibrated tissue scale that is MEASURED_SCALE (within SCALE_TOLERANCE): its errors were measured."""
+    return (cal.get("status") == "calibrated" and cal.get("key") == DEFAULT
+            and abs(float(cal.get("value", 0.0)) / MEASURED_SCALE - 1.0) <= SCALE_TOLERANCE)

@@ -130,7 +130,7 @@ def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True, c
     }
 
 
-def cpu_self() -> float:
-    """CPU seconds (user + system) of this process so far."""
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    return usage.ru_utime + usage.ru_stime
+def cpu_self(children: bool = False) -> float:
+    """CPU seconds (user + system) of this process so far (``children``: and of its ended child processes)."""
+    kinds = (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN) if children else (resource.RUSAGE_SELF,)
+    return sum(u.ru_utime + u.ru_stime for u in map(resource.getrusage, kinds))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import resource
 import time
 from pathlib import Path
 from typing import Any
@@ -15,7 +14,7 @@ from suture_fem.studies.reproduce.figures import figures
 from suture_fem.studies.reproduce.paper import CONES, SCENE, TARGET
 from suture_fem.studies.reproduce.report import comparison_markdown
 from suture_fem.studies.reproduce.rungs import RUNGS
-from suture_fem.studies.reproduce.solve import case_scene, solve_cone_counts, with_values
+from suture_fem.studies.reproduce.solve import case_scene, cpu_self, solve_cone_counts, with_values
 from suture_fem.studies.reproduce.stress import stress_comparison
 from suture_fem.support.io import write_json, write_text
 from suture_fem.support.parallel import on_root
@@ -37,7 +36,7 @@ def reproduce(scene: Scene, out: Path, comm: Any, calibrate_key: str = DEFAULT, 
     process). ``estimates``: attach each USUM's estimated discretisation error where the case is
     solved on its rung (False when the scene is not the built-in one the rungs were measured on).
     """
-    t_start, cpu_start = time.perf_counter(), _cpu()
+    t_start, cpu_start = time.perf_counter(), cpu_self(children=True)
     key = parse_key(calibrate_key, scene)
     cal = not_calibrated(scene) if key is None else calibrate(
         case_scene(scene, TARGET.cones, fixed), comm, key, out / "calibration", max_evaluations)
@@ -60,19 +59,14 @@ def reproduce(scene: Scene, out: Path, comm: Any, calibrate_key: str = DEFAULT, 
         cmp["figures"] = comm.bcast(cmp["figures"], root=0)
     info = _run_info(scene, scene_name, results, comm, time.perf_counter() - t_start)
     info.update({"jobs": solved["jobs"], "rungs": {str(n): _rung_label(m) for n, m in solved["rungs"].items()},
-                 "ramps_cpu_time_s": cpu + solved["cpu_time_s"], "cpu_time_s": comm.allreduce(_cpu() - cpu_start)})
+                 "ramps_cpu_time_s": cpu + solved["cpu_time_s"], "cpu_time_s":
+                     comm.allreduce(cpu_self(children=True) - cpu_start)})
     first = next(iter(results.values()), {})
     cmp.update({"scene": scene.as_dict(), "run": info, "stopped": solved["stopped"], "suture_fem_version": first.get(
         "suture_fem_version"), "dolfinx_version": first.get("dolfinx_version")})
     on_root(comm, "writing comparison.json", write_json, out / "comparison.json", cmp)
     on_root(comm, "writing comparison.md", write_text, out / "comparison.md", comparison_markdown(cmp, info))
     return cmp
-
-
-def _cpu() -> float:
-    """CPU seconds of this process and of its ended children (the ramps' processes)."""
-    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
 def _rung_label(mesh: dict[str, Any]) -> str:

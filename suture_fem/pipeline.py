@@ -30,7 +30,7 @@ from suture_fem.physics.problem import build_physics
 from suture_fem.scene import Scene, parse_scene
 from suture_fem.solve.records import Timings
 from suture_fem.solve.stepping import ramp
-from suture_fem.support.errors import SolveStopped, SutureFemError
+from suture_fem.support.errors import SceneError, SolveStopped, SutureFemError
 from suture_fem.support.io import remove
 from suture_fem.support.parallel import on_root
 
@@ -57,6 +57,9 @@ def check(scene: Scene) -> None:
     memory is refused in one line instead of meshing for minutes.
     """
     geometry = Geometry.from_section(scene.geometry)
+    if scene.mesh.geometry_degree == 2 and scene.mesh.degree != 2:
+        raise SceneError("scene key mesh.geometry_degree = 2 (quadratic cells) needs mesh.degree = 2 (isoparametric), "
+                         f"got mesh.degree = {scene.mesh.degree}")
     check_scene(scene)
     log.info("mesh estimate: %s", check_fits(geometry, scene.mesh).describe())
 

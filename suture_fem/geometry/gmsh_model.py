@@ -48,8 +48,12 @@ class MeshSizes:
 FILLET_GRADING = 3.0
 
 
-def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture") -> None:
-    """Build and mesh the half-section in the current gmsh model (call on one rank only)."""
+def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture", geometry_degree: int = 1) -> None:
+    """Build and mesh the half-section in the current gmsh model (call on one rank only).
+
+    ``geometry_degree`` 2 makes the cells quadratic when the section has fillet arcs (their mid-side
+    nodes on the arcs; ``mesh.geometry_degree``); without arcs the mesh stays straight-sided.
+    """
     import gmsh
 
     gmsh.model.add(name)
@@ -89,6 +93,8 @@ def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture")
     _size_fields(g, sizes, facets)
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.generate(2)
+    if geometry_degree == 2 and fillet_arcs():
+        gmsh.model.mesh.setOrder(2)  # mid-side nodes on the model's curves: the arcs' nodes lie on the arcs
 
 
 def _add_outline(occ: Any, outline: list) -> int:

@@ -42,12 +42,14 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
     if comm.rank == 0:
         with compat.gmsh_session() as gmsh:
             try:
-                on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes)
+                on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes, "suture",
+                        mesh_section.geometry_degree)
                 mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
             finally:
                 gmsh.model.remove()
     else:
-        on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes)  # rank 0's outcome, on every rank
+        on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes, "suture",  # rank 0's outcome, on every rank
+                mesh_section.geometry_degree)
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.geometry.x[:, :2] *= MM
     return TaggedMesh(mesh, cell_tags, facet_tags, geometry, sizes)
@@ -101,7 +103,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
     sizes = MeshSizes.from_section(mesh_section)
     with compat.gmsh_session() as gmsh:
         try:
-            build_gmsh_model(geometry, sizes)
+            build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree)
             _write_checked(gmsh, path)
             nodes = len(gmsh.model.mesh.getNodes()[0])
             cells = sum(len(t) for t in gmsh.model.mesh.getElements(2)[1])
@@ -141,7 +143,13 @@ def describe(tagged: TaggedMesh) -> dict[str, Any]:
     n_local = m.topology.index_map(2).size_local
     return {
         "cells": int(m.comm.allreduce(n_local)),
+        "geometry_degree": geometry_degree(m),
         "sizes_mm": tagged.sizes.__dict__,
         "geometry": tagged.geometry.describe(),
     }
 
+
+
+def geometry_degree(mesh: Any) -> int:
+    """The degree of the mesh's cells: 1 straight-sided, 2 quadratic (``mesh.geometry_degree`` with fillet arcs)."""
+    return int(getattr(mesh.geometry.cmap, "degree", 1))

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import dolfinx.fem
 import numpy as np
 
+from suture_fem.geometry import mesh as meshmod
 from suture_fem.outputs.base import PointFields, hencky_equivalent, von_mises
 from suture_fem.physics.problem import Physics
 from suture_fem.support import compat
@@ -42,7 +43,7 @@ def cell_maxima(points: PointFields) -> dict[str, np.ndarray]:
 
 
 class FieldWriter:
-    """XDMF output for ParaView: displacement (P1) and the cell-wise maximum von Mises stress.
+    """XDMF output for ParaView: displacement (P1; P2 on quadratic cells) and the cell-wise maximum von Mises stress.
 
     Complete or absent: the pair is written into a hidden folder and moved beside results.json on
     :meth:`close`, after both files are flushed to disk. A failed write (a full disk) removes the
@@ -57,7 +58,8 @@ class FieldWriter:
         self.staging = self.final.parent / f".{self.final.stem}.partial"
         self.file = None
         on_root(mesh.comm, f"creating {self.staging}", _fresh, self.staging)
-        self.u1 = dolfinx.fem.Function(compat.vector_space(mesh, 1), name="displacement_m")
+        # XDMF writes a Lagrange function of the mesh's own degree (P2 on quadratic cells)
+        self.u1 = dolfinx.fem.Function(compat.vector_space(mesh, meshmod.geometry_degree(mesh)), name="displacement_m")
         self.vm = dolfinx.fem.Function(compat.scalar_space(mesh, "DG", 0), name="von_mises_pa")
         _quiet_hdf5()
         self._checked(self._open)

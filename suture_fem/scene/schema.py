@@ -176,6 +176,7 @@ class MeshSection:
     size_far_mm: float = key(_length(100.0), MM)
     grading_mm: float = key(_length(1000.0), MM)
     fillet_elements: int = key(Rule("int", lo=1, hi=256))
+    geometry_degree: int = key(Rule("int", lo=1, hi=2))
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from suture_fem.pipeline import load_scene
 from suture_fem.studies.convergence.analysis import within
 from suture_fem.studies.convergence.ladder import Ladder, Rung, ladder_key
 from suture_fem.studies.convergence.quantities import REFINEMENT_RATIO, fmt_value
@@ -45,8 +46,11 @@ def markdown(title: str, ladder: Ladder, rungs: list[Rung], analysis: dict[str, 
 def _levels(ladder: Ladder) -> str:
     """What the ladder's levels refine, in words."""
     if ladder.refine == "fillet":
+        cells = ("quadratic cells, their mid-side nodes on the arcs (mesh.geometry_degree = 2)"
+                 if load_scene(ladder.source, ladder.overrides).mesh.geometry_degree == 2 else
+                 "straight-sided cells: each arc is a polygon (mesh.geometry_degree = 2 puts the cells on the arc)")
         return (f"fillet levels {ladder.refinements} (only mesh.fillet_elements doubles per level: the elements "
-                "along each rounded rim's arc; the rest of the mesh stays at the scene's mesh.refinement).")
+                f"along each rounded rim's arc; the rest of the mesh stays at the scene's mesh.refinement); {cells}.")
     if ladder.refine == "rim":
         return f"rim levels {ladder.refinements} (only mesh.size_rim_mm halves per level, at the cone corners)."
     return f"refinements {ladder.refinements} (every element size halves per step)."

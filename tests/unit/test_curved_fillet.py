@@ -1,0 +1,57 @@
+"""Quadratic cells on the fillet arcs (``mesh.geometry_degree = 2``): their mid-side nodes lie on the arcs,
+a scene without arcs keeps straight cells, and the key needs the isoparametric displacement degree."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry.regions import MM
+from suture_fem.pipeline import load_scene
+from suture_fem.support.errors import SceneError
+
+ONE_ROUNDED_CONE = ["geometry.cones=1", "geometry.cone_fillet_mm=0.04", "mesh.fillet_elements=8", "mesh.degree=2"]
+
+
+def _arc_nodes(overrides):
+    """(the mesh's geometry degree, the number of mesh nodes on each fillet arc), on one rank."""
+    scene = load_scene("paper", overrides)
+    tagged = meshmod.create_mesh(MPI.COMM_SELF, scene.geometry, scene.mesh)
+    x = tagged.mesh.geometry.x[:, :2] / MM
+    counts = []
+    for cone in tagged.geometry.cones:
+        for kind, seg in cone.outline:
+            if kind != "arc":
+                continue
+            start, centre, end = (np.asarray(p, dtype=float) for p in seg)
+            radius = np.hypot(*(start - centre))
+            d = np.hypot(*(x - centre).T)
+            on_circle = np.abs(d - radius) <= 1e-9 * radius
+            # on the arc: on its circle and between its end points (the arc is under a half turn)
+            chord = end - start
+            side = np.sign(np.cross(chord, centre - start))
+            between = np.sign(np.cross(chord, x - start)) != side
+            counts.append(int(np.sum(on_circle & (between | (np.hypot(*(x - start).T) < 1e-12)
+                                                  | (np.hypot(*(x - end).T) < 1e-12)))))
+    return meshmod.geometry_degree(tagged.mesh), counts
+
+
+def test_quadratic_cells_put_their_mid_side_nodes_on_the_arcs():
+    straight_degree, straight = _arc_nodes(ONE_ROUNDED_CONE)
+    curved_degree, curved = _arc_nodes(ONE_ROUNDED_CONE + ["mesh.geometry_degree=2"])
+    assert (straight_degree, curved_degree) == (1, 2)
+    assert len(straight) == 2 and min(straight) >= 9  # a hollow cone's two base rims, 8 segments or more each
+    # every segment of the arc gains its mid-side node, on the circle: n vertices -> 2 n - 1 nodes
+    assert curved == [2 * n - 1 for n in straight]
+
+
+def test_quadratic_cells_only_where_there_are_arcs():
+    degree, counts = _arc_nodes(["geometry.cones=1", "mesh.degree=2", "mesh.geometry_degree=2"])
+    assert (degree, counts) == (1, [])  # sharp rims: no curve to follow, the cells stay straight
+
+
+def test_quadratic_cells_need_the_isoparametric_degree():
+    with pytest.raises(SceneError, match=r"mesh.geometry_degree = 2 .* needs mesh.degree = 2"):
+        load_scene("paper", ["mesh.degree=1", "mesh.geometry_degree=2", "geometry.cone_fillet_mm=0.04"])

@@ -31,11 +31,17 @@ def _arc_nodes(overrides):
             on_circle = np.abs(d - radius) <= 1e-9 * radius
             # on the arc: on its circle and between its end points (the arc is under a half turn)
             chord = end - start
-            side = np.sign(np.cross(chord, centre - start))
-            between = np.sign(np.cross(chord, x - start)) != side
+            side = np.sign(_cross(chord, centre - start))
+            between = np.sign(_cross(chord, x - start)) != side
             counts.append(int(np.sum(on_circle & (between | (np.hypot(*(x - start).T) < 1e-12)
                                                   | (np.hypot(*(x - end).T) < 1e-12)))))
     return meshmod.geometry_degree(tagged.mesh), counts
+
+
+def _cross(a, b):
+    """The z component of a x b for 2-D vectors (b may be (n, 2)); np.cross of 2-D vectors is deprecated in numpy 2."""
+    b = np.asarray(b)
+    return a[0] * b[..., 1] - a[1] * b[..., 0]
 
 
 def test_quadratic_cells_put_their_mid_side_nodes_on_the_arcs():

@@ -149,7 +149,6 @@ def describe(tagged: TaggedMesh) -> dict[str, Any]:
     }
 
 
-
 def geometry_degree(mesh: Any) -> int:
     """The degree of the mesh's cells: 1 straight-sided, 2 quadratic (``mesh.geometry_degree`` with fillet arcs)."""
     return int(getattr(mesh.geometry.cmap, "degree", 1))

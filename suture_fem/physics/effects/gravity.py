@@ -32,7 +32,9 @@ def gravity_term(ctx: FormContext, e: EffectsSection, factor: Any, terms: Terms)
 def weight_n(tagged: meshmod.TaggedMesh, e: EffectsSection) -> float:
     """Total weight rho g V (N) from the mesh geometry, independently of the weak form.
 
-    For a straight-sided triangle int r dA = A r_centroid exactly, so V = sum 2 pi A r_centroid.
+    For a straight-sided triangle int r dA = A r_centroid exactly, so V = sum 2 pi A r_centroid. Quadratic
+    cells (``mesh.geometry_degree = 2``) count as their vertex triangles: the slivers between the fillet
+    arcs and their chords are below 1e-6 of the section's area at 8 elements per arc (0.04 mm fillets).
     """
     mesh = tagged.mesh
     n_owned = mesh.topology.index_map(2).size_local

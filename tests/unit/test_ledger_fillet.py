@@ -65,3 +65,6 @@ def test_the_command_refuses_in_one_line_before_any_meshing(bad, tmp_path, capsy
 def test_the_ledger_says_what_its_levels_refine():
     ladder = _plan(ROUNDED, [0, 1, 2])
     assert "fillet levels [0, 1, 2] (only mesh.fillet_elements doubles per level" in markdown("t", ladder, [], {})
+    assert "straight-sided cells: each arc is a polygon" in markdown("t", ladder, [], {})
+    curved = _plan([*ROUNDED, "mesh.degree=2", "mesh.geometry_degree=2"], [0, 1])
+    assert "quadratic cells, their mid-side nodes on the arcs" in markdown("t", curved, [], {})

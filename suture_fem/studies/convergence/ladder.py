@@ -19,6 +19,7 @@ already holds a converged result of the same resolved scene are reused (``redo``
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import os
@@ -33,7 +34,7 @@ from typing import Any
 
 from suture_fem.pipeline import load_scene
 from suture_fem.scene import Scene
-from suture_fem.scene.schema import RULES
+from suture_fem.scene.schema import RULES, MeshSection
 from suture_fem.studies.convergence.quantities import QUANTITIES, REFINEMENT_RATIO, force_key
 from suture_fem.studies.convergence.singular import solve_rung
 from suture_fem.support.errors import SceneError
@@ -166,11 +167,16 @@ class Ladder:
     # "fillet": mesh.fillet_elements * 2^k only (both at the scene's mesh.refinement)
     caps: dict[int, int] = field(default_factory=dict)  # degree -> finest level solved
 
+    @functools.cached_property
+    def base_mesh(self) -> MeshSection:
+        """The ``[mesh]`` section of the scene with the ladder's overrides (loaded once)."""
+        return load_scene(self.source, self.overrides).mesh
+
     def level_overrides(self, level: int) -> list[str]:
         """The scene keys of a level: every size halved, or only the rim size, or only the fillet's (``refine``)."""
         if self.refine == "all":
             return [f"mesh.refinement={level}"]
-        mesh = load_scene(self.source, self.overrides).mesh
+        mesh = self.base_mesh
         if self.refine == "fillet":
             return [f"mesh.fillet_elements={fillet_elements(mesh.fillet_elements, level)}"]
         return [f"mesh.size_rim_mm={mesh.size_rim_mm / REFINEMENT_RATIO**level!r}"]

@@ -12,7 +12,6 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from suture_fem.pipeline import load_scene
 from suture_fem.studies.convergence.analysis import within
 from suture_fem.studies.convergence.ladder import Ladder, Rung, ladder_key
 from suture_fem.studies.convergence.quantities import REFINEMENT_RATIO, fmt_value
@@ -47,7 +46,7 @@ def _levels(ladder: Ladder) -> str:
     """What the ladder's levels refine, in words."""
     if ladder.refine == "fillet":
         cells = ("quadratic cells, their mid-side nodes on the arcs (mesh.geometry_degree = 2)"
-                 if load_scene(ladder.source, ladder.overrides).mesh.geometry_degree == 2 else
+                 if ladder.base_mesh.geometry_degree == 2 else
                  "straight-sided cells: each arc is a polygon (mesh.geometry_degree = 2 puts the cells on the arc)")
         return (f"fillet levels {ladder.refinements} (only mesh.fillet_elements doubles per level: the elements "
                 f"along each rounded rim's arc; the rest of the mesh stays at the scene's mesh.refinement); {cells}.")

@@ -5,7 +5,8 @@
 The paper scene at 1 N with the recommended 0.04 mm fillet resolved by 32 elements along each arc, P2 r0 on
 quadratic cells (the arcs' mid-side nodes on the arcs; the defaults below, ``--set`` overrides them), solved
 once; the picture shows the cone of the tissue's largest critical-distance average near a cone, with that
-disc, the peak on the resolved fillet and the raw maximum (``suture_fem.studies.cone_stress``). Prints the measures drawn.
+disc, the peak on the resolved fillet and the raw maximum (``suture_fem.studies.cone_stress``). Prints the
+measures drawn.
 """
 
 from __future__ import annotations

@@ -42,8 +42,9 @@ FAR_FIELD = ["--set", "mesh.refinement=1", "--refinements", "4", "--refine", "fi
 #: refinement 1, 4 x 2^k elements along each arc, doubled by the refinement: 8 to 512 (the key's maximum 256)
 R1_FILLET = ["--set", "mesh.refinement=1", "--set", "mesh.fillet_elements=4", "--refinements", "0,1,2,3,4,5,6",
              "--refine", "fillet"]
-#: the same on quadratic cells (the arcs' mid-side nodes on the arcs), 8 to 256 elements along each arc
-CURVED = ["--set", "mesh.geometry_degree=2", *R1_FILLET[:4], "--refinements", "0,1,2,3,4,5", "--refine", "fillet"]
+#: the same on quadratic cells (the arcs' mid-side nodes on the arcs)
+CURVED = ["--set", "mesh.geometry_degree=2", *R1_FILLET[:4], "--refinements", "0,1,2,3,4,5,6", "--refine", "fillet"]
+CURVED_GLOBAL = ["--set", "mesh.geometry_degree=2", "--set", "mesh.fillet_elements=32", "--refinements", "0,1,2"]
 STRESS_LADDERS = {
     "stress-1cone-p2": ("1 cone, 1 N, fillet 0.04 mm, P2", [*FILLET, *ONE_CONE, "--refinements", "0,1,2"]),
     "stress-1cone-mixed": ("1 cone, 1 N, fillet 0.04 mm, P2/P1 mixed",
@@ -65,6 +66,11 @@ STRESS_LADDERS = {
                             [*FILLET, *CURVED, "--forces", "1,4"]),
     "curved-1cone-p2-r1": ("1 cone, 1 N, fillet 0.04 mm, P2 r1 on quadratic cells, only the fillet refined",
                            [*FILLET, *CURVED, *ONE_CONE]),
+    # global refinement on quadratic cells, the arcs resolved at every rung: 32, 64, 128 elements along each
+    "curved-global-4cones": ("4 cones, fillet 0.04 mm, P2 on quadratic cells, 32 x 2^k elements per arc",
+                             [*FILLET, *CURVED_GLOBAL, "--forces", "1,4"]),
+    "curved-global-1cone": ("1 cone, 1 N, fillet 0.04 mm, P2 on quadratic cells, 32 x 2^k elements per arc",
+                            [*FILLET, *CURVED_GLOBAL, *ONE_CONE]),
     "fillet-4cones-farfield": ("4 cones, fillet 0.04 mm, P2 r1, 256 elements along each arc",
                                [*FILLET, *FAR_FIELD, "--forces", "1,4"]),
     "fillet-1cone-farfield": ("1 cone, 1 N, fillet 0.04 mm, P2 r1, 256 elements along each arc",

@@ -7,6 +7,7 @@ OUT/summary.json and OUT/summary.md (the tables of every ledger, for docs/ledger
     .venv/bin/python benchmarks/ledger.py [--out benchmarks/out/ledger] [--only paper] [--summary-only]
     .venv/bin/python benchmarks/ledger.py --only stress-1cone-p2 --only stress-4cones-p2   # issue 17's ladders
     .venv/bin/python benchmarks/ledger.py --only fillet-1cone-p2 --only fillet-1cone-farfield  # fillet refined only
+    .venv/bin/python benchmarks/ledger.py --only curved-global-1cone --only curved-global-4cones  # quadratic cells
 
 The finest rungs are slow on a 2-core machine (degree 1 refinement 2: about 100k cells; degree 2 is
 stopped at refinement 1): the whole benchmark takes 30-60 minutes there.

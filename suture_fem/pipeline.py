@@ -59,7 +59,8 @@ def check(scene: Scene) -> None:
     geometry = Geometry.from_section(scene.geometry)
     if scene.mesh.geometry_degree == 2 and scene.mesh.degree != 2:
         raise SceneError("scene key mesh.geometry_degree = 2 (quadratic cells) needs mesh.degree = 2 (isoparametric), "
-                         f"got mesh.degree = {scene.mesh.degree}")
+                         f"got mesh.degree = {scene.mesh.degree} (reproduce's P1 mesh rungs and convergence's "
+                         "degree-1 rungs set it: use --mesh scene, or --degrees 2)")
     check_scene(scene)
     log.info("mesh estimate: %s", check_fits(geometry, scene.mesh).describe())
 

@@ -52,6 +52,10 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
                 mesh_section.geometry_degree)
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.geometry.x[:, :2] *= MM
+    folded = mesh.comm.allreduce(folded_cells(mesh)) if geometry_degree(mesh) == 2 else 0
+    if folded:
+        raise SceneError(f"mesh.geometry_degree = 2: {folded} quadratic cell(s) on the fillet arcs fold over (their "
+                         f"Jacobian changes sign); raise mesh.fillet_elements (now {mesh_section.fillet_elements})")
     return TaggedMesh(mesh, cell_tags, facet_tags, geometry, sizes)
 
 
@@ -106,7 +110,9 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
             build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree)
             _write_checked(gmsh, path)
             nodes = len(gmsh.model.mesh.getNodes()[0])
-            cells = sum(len(t) for t in gmsh.model.mesh.getElements(2)[1])
+            types, tags, cell_nodes = gmsh.model.mesh.getElements(2)
+            cells = sum(len(t) for t in tags)
+            nodes_per_cell = len(cell_nodes[0]) // max(len(tags[0]), 1) if len(tags) else 3
         finally:
             gmsh.model.remove()
     record = {
@@ -114,6 +120,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
         "units": "mm",
         "nodes": nodes,
         "triangles": int(cells),
+        "geometry_degree": mesh_section.geometry_degree if nodes_per_cell == 6 else 1,
         "cell_tags": CELL_TAGS,
         "facet_tags": FACET_TAGS,
         "geometry": geometry.describe(),
@@ -150,5 +157,31 @@ def describe(tagged: TaggedMesh) -> dict[str, Any]:
 
 
 def geometry_degree(mesh: Any) -> int:
-    """The degree of the mesh's cells: 1 straight-sided, 2 quadratic (``mesh.geometry_degree`` with fillet arcs)."""
-    return int(getattr(mesh.geometry.cmap, "degree", 1))
+    """The degree of the mesh's cells, from their nodes: 3 (straight-sided) -> 1, 6 (quadratic) -> 2."""
+    return {3: 1, 6: 2}[compat.geometry_dofs(mesh).shape[1]]
+
+
+#: Points of the reference triangle where :func:`folded_cells` evaluates the Jacobian: vertices, edge midpoints,
+#: centroid.
+_FOLD_POINTS = ((0, 0), (1, 0), (0, 1), (0.5, 0.5), (0, 0.5), (0.5, 0), (1 / 3, 1 / 3))
+
+
+def folded_cells(mesh: Any) -> int:
+    """The local quadratic triangles whose Jacobian determinant changes sign (or vanishes) inside them.
+
+    Sampled at :data:`_FOLD_POINTS` with the P2 Lagrange basis in dolfinx's node order (vertices 0-2, then
+    the mid-side nodes of the edges opposite vertices 0, 1, 2): a cell whose curved edge bulges past
+    its opposite corner would integrate with a wrong sign without any error.
+    """
+    x = mesh.geometry.x[:, :2][compat.geometry_dofs(mesh)]  # (cells, 6, 2)
+    dets = []
+    for xi, eta in _FOLD_POINTS:
+        lam = (1.0 - xi - eta, xi, eta)
+        dlam = ((-1.0, -1.0), (1.0, 0.0), (0.0, 1.0))  # d(lambda_k)/d(xi, eta)
+        grads = [[(4 * lam[k] - 1) * dlam[k][d] for d in range(2)] for k in range(3)]
+        for a, b in ((1, 2), (0, 2), (0, 1)):  # the mid-side node of edge (a, b): 4 lambda_a lambda_b
+            grads.append([4 * (lam[a] * dlam[b][d] + lam[b] * dlam[a][d]) for d in range(2)])
+        jac = np.einsum("cnx,nd->cxd", x, np.array(grads))
+        dets.append(jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0])
+    dets = np.array(dets)
+    return int(np.sum(np.any(dets * np.sign(dets[-1]) <= 0.0, axis=0)))

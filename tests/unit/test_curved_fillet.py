@@ -61,3 +61,33 @@ def test_quadratic_cells_only_where_there_are_arcs():
 def test_quadratic_cells_need_the_isoparametric_degree():
     with pytest.raises(SceneError, match=r"mesh.geometry_degree = 2 .* needs mesh.degree = 2"):
         load_scene("paper", ["mesh.degree=1", "mesh.geometry_degree=2", "geometry.cone_fillet_mm=0.04"])
+
+
+def _curved_mesh():
+    scene = load_scene("paper", ONE_ROUNDED_CONE + ["mesh.geometry_degree=2"])
+    return meshmod.create_mesh(MPI.COMM_SELF, scene.geometry, scene.mesh).mesh
+
+
+def test_a_quadratic_cells_vertices_come_first():
+    """The locator and the fold check read a cell's first three nodes as its vertices, then the mid-side nodes."""
+    from suture_fem.support import compat
+
+    mesh = _curved_mesh()
+    x = mesh.geometry.x[:, :2][compat.geometry_dofs(mesh)]
+    mid = np.stack([(x[:, 1] + x[:, 2]) / 2, (x[:, 0] + x[:, 2]) / 2, (x[:, 0] + x[:, 1]) / 2], axis=1)
+    off = np.linalg.norm(x[:, 3:] - mid, axis=2).max(axis=1) / np.linalg.norm(x[:, 1] - x[:, 0], axis=1)
+    curved = off > 1e-9
+    assert 0 < curved.sum() < 0.05 * len(off)  # only the cells on the arcs bulge
+    assert off.max() < 0.1  # and only a little (the arc's sagitta over the edge)
+
+
+def test_a_folded_quadratic_cell_is_found():
+    from suture_fem.support import compat
+
+    mesh = _curved_mesh()
+    assert meshmod.folded_cells(mesh) == 0
+    nodes = compat.geometry_dofs(mesh)[0]
+    x = mesh.geometry.x
+    towards_edge = 0.5 * (x[nodes[1], :2] + x[nodes[2], :2]) - x[nodes[0], :2]
+    x[nodes[3], :2] = x[nodes[0], :2] - 0.5 * towards_edge
+    assert meshmod.folded_cells(mesh) >= 1  # the mid-side node of edge (1, 2) pulled past vertex 0

@@ -94,6 +94,10 @@ def _write_checked(gmsh: Any, path: Path) -> None:
     commit(tmp, path)
 
 
+#: gmsh's element type of the 6-node (quadratic) triangle.
+GMSH_TRIANGLE6 = 9
+
+
 def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path: str | Path) -> dict[str, Any]:
     """Write a scene's mesh as a gmsh .msh file (mm) with a JSON record of its parameters beside it.
 
@@ -110,9 +114,8 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
             build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree)
             _write_checked(gmsh, path)
             nodes = len(gmsh.model.mesh.getNodes()[0])
-            types, tags, cell_nodes = gmsh.model.mesh.getElements(2)
+            types, tags, _ = gmsh.model.mesh.getElements(2)
             cells = sum(len(t) for t in tags)
-            nodes_per_cell = len(cell_nodes[0]) // max(len(tags[0]), 1) if len(tags) else 3
         finally:
             gmsh.model.remove()
     record = {
@@ -120,7 +123,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
         "units": "mm",
         "nodes": nodes,
         "triangles": int(cells),
-        "geometry_degree": mesh_section.geometry_degree if nodes_per_cell == 6 else 1,
+        "geometry_degree": 2 if GMSH_TRIANGLE6 in types else 1,
         "cell_tags": CELL_TAGS,
         "facet_tags": FACET_TAGS,
         "geometry": geometry.describe(),

@@ -61,6 +61,11 @@ def _maximum(found: DiscMax) -> Maximum:
 
 def cone_distance(cones: list[Any], points: np.ndarray) -> np.ndarray:
     """Distance (mm) of points (k, 2) in mm to the nearest cone surface (arcs taken as 16 chords each)."""
+    return _segment_distance(cone_segments(cones), points)
+
+
+def cone_segments(cones: list[Any]) -> tuple[np.ndarray, np.ndarray] | None:
+    """The cones' outlines as straight segments (start points, end points; mm), each arc as 16 chords; None: no cone."""
     a, b = [], []
     for cone in cones:
         for kind, seg in cone.outline:
@@ -75,9 +80,14 @@ def cone_distance(cones: list[Any], points: np.ndarray) -> np.ndarray:
             arc = c + np.linalg.norm(p - c) * np.column_stack([np.cos(t), np.sin(t)])
             a.extend(arc[:-1])
             b.extend(arc[1:])
-    if not a:
+    return (np.asarray(a, dtype=float), np.asarray(b, dtype=float)) if a else None
+
+
+def _segment_distance(segments: tuple[np.ndarray, np.ndarray] | None, points: np.ndarray) -> np.ndarray:
+    """Distance of points (k, 2) to the nearest of the segments (inf without any)."""
+    if segments is None:
         return np.full(len(points), np.inf)
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    a, b = segments
     d = b - a
     along = np.einsum("kij,ij->ki", points[:, None, :] - a[None], d) / np.maximum((d * d).sum(axis=1), 1e-300)
     t = np.clip(along, 0.0, 1.0)
@@ -117,9 +127,10 @@ class CriticalDistance(Quantity):
         mesh = setup.physics.mesh
         owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self.parts: dict[str, Any] = {}
-        cones = setup.physics.tagged.geometry.cones
+        segments = cone_segments(setup.physics.tagged.geometry.cones)  # once: the search asks for every grid
         zone = CONE_ZONE_RADII * self.radius / MM
-        self.near_cones = (lambda c: cone_distance(cones, np.asarray(c) / MM) <= zone) if cones else None
+        self.near_cones = (None if segments is None else
+                           lambda c: _segment_distance(segments, np.asarray(c) / MM) <= zone)
         if self.radius <= 0 or points is None:
             return
         for region in (*TISSUE_REGIONS, "tissue"):

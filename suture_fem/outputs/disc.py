@@ -184,7 +184,7 @@ def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ..
         if allowed is not None:
             group = group[allowed(group)]
         if len(group):
-            chosen.append(group[np.argsort(-disc_averages(field, group, radius, allowed), kind="stable")[:STARTS]])
+            chosen.append(group[np.argsort(-disc_averages(field, group, radius), kind="stable")[:STARTS]])  # allowed
     climbs: list[np.ndarray] = []  # a start within R of an earlier one would climb the same hill: skipped
     for s in np.concatenate(chosen) if chosen else ():
         if all(np.hypot(*(s - c)) >= radius for c in climbs):

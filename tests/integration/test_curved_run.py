@@ -28,6 +28,7 @@ def test_a_run_on_quadratic_cells(tmp_path):
     assert (tmp_path / "curved" / "fields.xdmf").is_file() and (tmp_path / "curved" / "fields.h5").is_file()
     tissue = curved["at_forces"][-1]["regions"]["tissue"]
     assert all(math.isfinite(tissue[k]) for k in ("seqv_fillet_pa", "eptoeqv_fillet", "seqv_cd_pa", "eptoeqv_cd"))
-    # the same mesh but for the arcs' mid-side nodes: the displacement hardly moves (measured 1e-6 at 1 N, P2 r1)
-    assert curved["usum_mm"] == pytest.approx(straight["usum_mm"], rel=1e-3)
+    # the same mesh but for the arcs' mid-side nodes: the displacement hardly moves (measured: 1.0e-5 on this
+    # scene, 1e-6 at 1 N on P2 r1 with 32 elements per arc)
+    assert curved["usum_mm"] == pytest.approx(straight["usum_mm"], rel=1e-4)
     assert curved["cells"] == straight["cells"]

@@ -119,9 +119,9 @@ class Case:
 
         def on_converged(force_n: float, report: bool, time_s: float | None = None, solver: Any = None) -> None:
             if report:  # the Newton solver's own factorisation gives du/dp (none is added)
-                at[round(force_n, 9)] = self.sensitivity.at_state_many(quantities, direct, solver)
-                states[round(force_n, 9)] = (physics.state.x.array.copy(),
-                                             [c.copy() for c in self.sensitivity.last_changes])
+                values, derivatives, changes = self.sensitivity.at_state_many(quantities, direct, solver)
+                at[round(force_n, 9)] = (values, derivatives)
+                states[round(force_n, 9)] = (physics.state.x.array.copy(), changes)
 
         warm = self._warm_start(values)
         self.states = None  # a ramp that stops half-way leaves no states to start from

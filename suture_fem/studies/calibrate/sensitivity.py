@@ -47,7 +47,6 @@ class Sensitivity:
         expressions are compiled at the first use.
         """
         self.physics, self.output = physics, output
-        self.last_changes: list[np.ndarray] = []  # du/dp of the keys of the last at_state_many, state arrays
         self._measures: TissueMeasures | None = None
         self.reduction = Reduction(physics)
         self.J_form = physics.form("jacobian")
@@ -93,18 +92,19 @@ class Sensitivity:
 
     def at_state(self, quantity: str, keys: list[str], solver: Any = None) -> tuple[float, np.ndarray]:
         """The prediction and its derivative with respect to every key, at the current (converged) state."""
-        values, derivatives = self.at_state_many([quantity], keys, solver)
+        values, derivatives, _ = self.at_state_many([quantity], keys, solver)
         return values[0], derivatives[0]
 
     def at_state_many(self, quantities: list[str], keys: list[str],
-                      solver: Any = None) -> tuple[list[float], list[np.ndarray]]:
+                      solver: Any = None) -> tuple[list[float], list[np.ndarray], list[np.ndarray]]:
         """:meth:`at_state` of several quantities at once: one factorisation of the Jacobian for them all.
+
+        Returns (values, their derivatives, du/dp of every key as local arrays of the state).
 
         ``solver``: the NewtonSolver that just converged (:func:`~suture_fem.solve.stepping.ramp` with
         ``with_solver``), whose factorisation is then reused; None: A is assembled and factorised here.
         """
         values, centres = [], {}
-        self.last_changes = []
         for quantity in quantities:
             if quantity in (SEQV_CD, EPTOEQV_CD):
                 value, centres[quantity] = self.measures().maximum(quantity)
@@ -113,16 +113,15 @@ class Sensitivity:
             values.append(value)
         out = [np.zeros(len(keys)) for _ in quantities]
         if not keys:
-            return values, out
+            return values, out, []
         changes = self.state_derivatives(keys, solver)
-        self.last_changes = changes
         for j, (key, change) in enumerate(zip(keys, changes)):
             for i, quantity in enumerate(quantities):
                 if quantity in centres:
                     out[i][j] = self.measures().derivative(quantity, centres[quantity], key, change)
                 else:
                     out[i][j] = self._change_of(quantity, change)
-        return values, out
+        return values, out, changes
 
     def _change_of(self, quantity: str, change: np.ndarray) -> float:
         """The prediction's derivative (mm per unit parameter) given du/dp as the state's local array."""

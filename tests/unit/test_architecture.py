@@ -85,3 +85,18 @@ def test_every_declared_key_has_a_default_and_every_default_is_declared():
     for name, section in SECTIONS.items():
         assert set(defaults[name]) == {f.name for f in fields(section)}, name
     assert set(defaults) == {*SECTIONS, "materials"}
+
+
+def test_the_command_line_does_not_import_scipy_until_a_study_needs_it():
+    """Building the parser and the run pipeline imports no scipy (it cost every command 0.3 s of CPU, issue 14).
+
+    The calibration imports scipy inside the functions that fit and give intervals.
+    """
+    import subprocess
+    import sys
+
+    code = ("import sys; import suture_fem.pipeline, suture_fem.cli.run_report; "
+            "from suture_fem.cli.main import build_parser; build_parser(); "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'scipy'))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert out.stdout.strip() == "[]", out.stdout

@@ -25,7 +25,6 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy import optimize, stats
 
 from suture_fem.studies.calibrate.data import Point
 from suture_fem.studies.calibrate.keys import FitKey
@@ -65,6 +64,8 @@ def fit(model: Model, max_evaluations: int = 30) -> dict[str, Any]:
 
     lo = np.array([k.lo for k in keys]) / start
     hi = np.array([k.hi for k in keys]) / start
+    from scipy import optimize  # here, not at import: scipy costs every command 0.3 s of CPU
+
     result = optimize.least_squares(lambda x: evaluate(x)[0], np.ones(len(keys)), jac=lambda x: evaluate(x)[1],
                                     bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=max_evaluations,
                                     xtol=1e-6, ftol=1e-8, gtol=1e-8)
@@ -84,6 +85,8 @@ def fit(model: Model, max_evaluations: int = 30) -> dict[str, Any]:
 def uncertainty(keys: list[FitKey], points: list[Point], theta: np.ndarray, r: np.ndarray, J: np.ndarray,
                 s: np.ndarray, sigma_source: str) -> dict[str, Any]:
     """Covariance, 95 % intervals, correlation and the identifiability verdict at the optimum."""
+    from scipy import stats
+
     n, k = J.shape
     dof = n - k
     if sigma_source == "stated standard deviations":

@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from suture_fem.scene import Scene
 from suture_fem.studies.calibrate.data import EPTOEQV_CD, SEQV_CD, UNITS, USUM, Point
@@ -69,6 +68,8 @@ def fitted_curve(model: Model, record: dict[str, Any]) -> list[dict[str, Any]]:
     """
     theta = np.array([record["parameters"][k.key]["value"] for k in model.keys])
     cov = np.array(record["covariance"])
+    from scipy import stats  # here, not at import: scipy costs every command 0.3 s of CPU
+
     quantile = stats.norm.ppf(0.975)
     stress = [SEQV_CD, EPTOEQV_CD] if model.scene.output.critical_distance_mm > 0 else []
     out = []

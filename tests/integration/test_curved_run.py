@@ -9,6 +9,7 @@ tests/integration/test_curved_run.py.
 from __future__ import annotations
 
 import math
+from xml.etree import ElementTree
 
 import pytest
 
@@ -26,6 +27,10 @@ def test_a_run_on_quadratic_cells(tmp_path):
     assert curved["status"] == "converged"
     assert curved["reaction_force_n"] == pytest.approx(-0.5, rel=1e-8)
     assert (tmp_path / "curved" / "fields.xdmf").is_file() and (tmp_path / "curved" / "fields.h5").is_file()
+    # the field file's mesh has the quadratic cells (six nodes each), not their vertex triangles
+    xdmf = ElementTree.parse(tmp_path / "curved" / "fields.xdmf")
+    topologies = {t.get("TopologyType") for t in xdmf.iter("Topology")}
+    assert topologies == {"Triangle_6"}, topologies
     tissue = curved["at_forces"][-1]["regions"]["tissue"]
     assert all(math.isfinite(tissue[k]) for k in ("seqv_fillet_pa", "eptoeqv_fillet", "seqv_cd_pa", "eptoeqv_cd"))
     # the same mesh but for the arcs' mid-side nodes: the displacement hardly moves (measured: 1.0e-5 on this

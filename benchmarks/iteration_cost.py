@@ -11,7 +11,12 @@ more); "floor" is an iteration whose Jacobian kernel cost nothing (insertion, fa
 which no hyperelastic kernel can go below. Prints a table and writes JSON.
 
     .venv/bin/python benchmarks/iteration_cost.py [--degrees 1,2] [--repeats 10] [--set KEY=VALUE ...]
+        [--compile-args="-O3 -g0" --compile-args="-O3 -g0 -march=native" [--rounds 3]]
         [--out benchmarks/out/iteration_cost.json]
+
+``--compile-args`` (repeatable) measures with the forms compiled with other C flags than the package's
+(``compat.JIT_COMPILE_ARGS``), each set in turn, ``--rounds`` times round, so that flags can be
+compared side by side in one process (each set compiles its own kernels: the cache key holds the flags).
 
 The state is the rest state (the kernels cost the same at any state; the factorisation's pivoting may
 differ slightly from a deformed state's). CPU seconds (``time.process_time``), the median of the repeats.
@@ -38,7 +43,7 @@ def _median_cpu(fn: Any, repeats: int) -> float:
     return statistics.median(times)
 
 
-def measure(degree: int, sets: list[str], repeats: int) -> dict[str, Any]:
+def measure(degree: int, sets: list[str], repeats: int, compile_args: tuple[str, ...]) -> dict[str, Any]:
     """The parts of one Newton iteration at ``degree`` on the paper scene, CPU seconds each."""
     import dolfinx.fem.petsc
     import ufl
@@ -52,6 +57,7 @@ def measure(degree: int, sets: list[str], repeats: int) -> dict[str, Any]:
     from suture_fem.solve.records import Timings
     from suture_fem.support import compat
 
+    compat.JIT_COMPILE_ARGS = compile_args
     scene = load_scene("paper", [*sets, f"mesh.degree={degree}"])
     tagged = meshmod.create_mesh(MPI.COMM_WORLD, scene.geometry, scene.mesh)
     physics = build_physics(tagged, scene)
@@ -104,6 +110,7 @@ def measure(degree: int, sets: list[str], repeats: int) -> dict[str, Any]:
         fact_times.append(refactorise.spent)
     row = {
         "degree": degree,
+        "compile_args": " ".join(compile_args),
         "dofs": int(physics.W.dofmap.index_map.size_global * physics.W.dofmap.index_map_bs),
         "jacobian_s": _median_cpu(jacobian, repeats),
         "insertion_floor_s": _median_cpu(insertion, repeats),
@@ -134,24 +141,32 @@ def main() -> None:
     parser.add_argument("--degrees", default="1,2")
     parser.add_argument("--repeats", type=int, default=10)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--compile-args", action="append", default=None, metavar="FLAGS",
+                        help="C flags of the forms' kernels (repeatable; default: the package's own)")
+    parser.add_argument("--rounds", type=int, default=1, help="times round the --compile-args sets")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks/out/iteration_cost.json")
     args = parser.parse_args()
+    from suture_fem.support import compat
+
+    flag_sets = [tuple(f.split()) for f in args.compile_args] if args.compile_args else [compat.JIT_COMPILE_ARGS]
     load = os.getloadavg()[0]
-    rows = [measure(int(d), args.set, args.repeats) for d in args.degrees.split(",")]
+    rows = [measure(int(d), args.set, args.repeats, flags) for _ in range(args.rounds) for flags in flag_sets
+            for d in args.degrees.split(",")]
     ms = 1e3
     print(f"paper scene{' ' + ' '.join(args.set) if args.set else ''}, CPU ms (median of {args.repeats}), "
           f"load {load:.1f} / {os.getloadavg()[0]:.1f}")
-    print("| degree | dofs | Jacobian | insertion floor | T^T A T | factorisation | solve | residual | energy "
-          "| iteration / factorisation | iteration / (factorisation + solve) | floor / factorisation "
+    print("| compile args | degree | dofs | Jacobian | insertion floor | T^T A T | factorisation | solve | residual "
+          "| energy | iteration / factorisation | iteration / (factorisation + solve) | floor / factorisation "
           "| floor / (factorisation + solve) |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in rows:
-        print(f"| P{r['degree']} | {r['dofs']:,} | {r['jacobian_s'] * ms:.1f} | {r['insertion_floor_s'] * ms:.1f} | "
+        print(f"| {r['compile_args']} | P{r['degree']} | {r['dofs']:,} | {r['jacobian_s'] * ms:.1f} | "
+              f"{r['insertion_floor_s'] * ms:.1f} | "
               f"{r['reduction_s'] * ms:.1f} | {r['factorisation_s'] * ms:.1f} ({r['solver']} {r['pc']}) | "
               f"{r['solve_s'] * ms:.1f} | {r['residual_s'] * ms:.1f} | {r['energy_s'] * ms:.1f} | "
               f"{r['iteration_over_factorisation']:.2f} | {r['iteration_over_linear_solve']:.2f} | "
               f"{r['floor_over_factorisation']:.2f} | {r['floor_over_linear_solve']:.2f} |")
-    write_json(args.out, {"scene_sets": args.set, "repeats": args.repeats, "load_before": load,
+    write_json(args.out, {"scene_sets": args.set, "repeats": args.repeats, "rounds": args.rounds, "load_before": load,
                           "load_after": os.getloadavg()[0], "rows": rows})
     print(f"written: {args.out}")
 

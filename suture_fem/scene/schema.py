@@ -214,6 +214,7 @@ class OutputSection:
     fields: bool = key(Rule("bool"))
     rim_exclusion_mm: float = key(_pos(100.0, lo_open=False), MM)
     critical_distance_mm: float = key(_pos(10.0, lo_open=False), MM)
+    critical_distance_layers: bool = key(Rule("bool"))
     quantities: tuple[str, ...] = key(Rule("strs", choices=("usum", "seqv", "eptoeqv")))
 
 

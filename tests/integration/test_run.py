@@ -124,3 +124,18 @@ def test_mesh_command_writes_msh_and_record(tmp_path):
     record = json.loads((tmp_path / "one.json").read_text())
     assert record["units"] == "mm" and record["cell_tags"]["cone"] == 5 and record["triangles"] > 0
     assert (tmp_path / "one.msh").stat().st_size > 0
+
+
+def test_without_the_layers_averages_the_tissue_values_stay_and_the_layers_have_none(runs, tmp_path):
+    """``output.critical_distance_layers = false`` skips each layer's own search; the tissue's are the same values."""
+    res = run_inprocess("paper", FAST + RAMP + ["geometry.cones=1", "output.critical_distance_layers=false"], tmp_path)
+    with_layers, _ = runs[1]
+    names = ("seqv_cd_pa", "eptoeqv_cd", "seqv_cd_cone_pa", "eptoeqv_cd_cone")
+    for rec, ref in zip(res["at_forces"], with_layers["at_forces"], strict=True):
+        for name in names:
+            assert rec["regions"]["tissue"][name] == ref["regions"]["tissue"][name]
+            assert rec["regions"]["tissue"][name + "_at_mm"] == ref["regions"]["tissue"][name + "_at_mm"]
+        assert rec["seqv_cd_pa"] == ref["seqv_cd_pa"] and rec["seqv_cd_pa_region"] == "tissue"
+        for layer in ("hypodermis", "dermis", "epidermis"):
+            assert "seqv_cd_pa" in ref["regions"][layer] and "seqv_cd_pa" not in rec["regions"][layer]
+            assert rec["regions"][layer]["seqv_pa"] == ref["regions"][layer]["seqv_pa"]  # the rest as before

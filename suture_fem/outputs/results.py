@@ -57,6 +57,7 @@ class SolverRecord:
     linear_solver: str
     linear_solver_fallbacks: list[str]
     domain_rejections: int
+    inertia_shifts: int
     line_search_switches: int
     residual_floor_n: float
     solves_at_residual_floor: int
@@ -71,6 +72,7 @@ class SolverRecord:
             linear_solver=history.linear_solver,
             linear_solver_fallbacks=history.fallbacks,
             domain_rejections=history.domain_rejections,
+            inertia_shifts=history.inertia_shifts,
             line_search_switches=history.line_search_switches,
             residual_floor_n=history.residual_floor_n,
             solves_at_residual_floor=history.floor_above_atol,

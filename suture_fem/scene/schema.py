@@ -204,6 +204,7 @@ class SolverSection:
     atol: float = key(_pos(1.0), N)
     linear_solver: str = key(Rule("str", choices=("mumps", "superlu_dist", "petsc")))
     petsc_options: Params = key(Rule("table"))
+    inertia_correction: bool = key(Rule("bool"))
     gent_limit_fraction: float = key(Rule("float", lo=0.0, hi=1.0, lo_open=True))
 
 

@@ -49,6 +49,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem.scene.schema import SolverSection
+from suture_fem.solve import inertia
 from suture_fem.solve.guard import DomainGuard, Violation
 from suture_fem.solve.linearised import Linearised
 from suture_fem.solve.records import Timings
@@ -99,6 +100,7 @@ class NewtonSolver(Linearised):
         self._work = self.x.duplicate()  # scratch vector of the unknowns
         self.floor = 0.0  # round-off floor of the residual at the start of the last solve that assembled A (N)
         self.outside_domain = 0
+        self.inertia_shifts = self.extra_factorisations = 0  # inertia.correct's, in the last solve
         self.last_violation: Violation | None = None
         self.options = solver_options
         self.linear_solver = solver_options.linear_solver
@@ -139,7 +141,7 @@ class NewtonSolver(Linearised):
         if self.objective_form is not None:
             self.snes.setObjective(self._objective)
             self.snes.setConvergenceTest(self.stops.converged)
-        self.snes.setJacobian(self._jacobian, self.A)
+        self.snes.setJacobian(self._newton_jacobian, self.A)
         self.snes.setFromOptions()
         self.snes.getKSP().setFromOptions()
 
@@ -215,6 +217,18 @@ class NewtonSolver(Linearised):
             self.floor = self.round_off_floor(x)
             snes.setTolerances(atol=max(self.options.atol, self.floor))
 
+    def _newton_jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
+        """SNES's Jacobian: :meth:`_jacobian`, then (MUMPS LDL^T) shifted while it has negative pivots."""
+        self._jacobian(snes, x, A, P)
+        pc = snes.getKSP().getPC()
+        if not (self.options.inertia_correction and pc.getType() == "cholesky" and self.linear_solver == "mumps"):
+            return
+        shifted, extra = inertia.correct(snes.getKSP(), A)  # its factorisations count in the linear solve's time
+        self.inertia_shifts += shifted
+        self.extra_factorisations += extra
+        if shifted:  # the factorisation is not the Jacobian's: a tangent or sensitivity solve assembles A again
+            self.jacobian_current = False
+
     def round_off_floor(self, x: Any) -> float:
         """Eps * ||A diag|x| ||_F: how much rounding each unknown by one ulp changes the residual (N).
 
@@ -240,7 +254,7 @@ class NewtonSolver(Linearised):
         """
         self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
         self.jacobian_current = False
-        self.outside_domain = 0
+        self.outside_domain = self.inertia_shifts = self.extra_factorisations = 0
         self.last_violation = None
         t0 = time.perf_counter()
         a0 = self.timings.assembly + self.timings.guard

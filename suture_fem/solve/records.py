@@ -40,6 +40,8 @@ class RampResult:
     linear_solver: str = ""
     fallbacks: list[str] = field(default_factory=list)
     domain_rejections: int = 0
+    #: Newton iterations whose Jacobian had negative pivots and was shifted (solve/inertia.py)
+    inertia_shifts: int = 0
     line_search_switches: int = 0
     #: largest round-off floor of the residual (N) used as the absolute tolerance, and in how many solves
     #: it was above ``solver.atol``

@@ -214,6 +214,7 @@ class _Stepper:
         ok, its, reason = newton.solve()
         result.newton_iterations += its
         result.domain_rejections += newton.outside_domain
+        result.inertia_shifts += newton.inertia_shifts
         if newton.floor > newton.options.atol:
             if result.floor_above_atol == 0:
                 log.info("the residual's round-off floor %.2e N is above solver.atol %.2e N: Newton stops at the "

@@ -17,7 +17,8 @@ def running() -> Results:
 
 def history() -> SimpleNamespace:
     return SimpleNamespace(steps=[1, 2], newton_iterations=9, cutbacks=1, linear_solver="mumps", fallbacks=[],
-                           domain_rejections=0, line_search_switches=0, residual_floor_n=1e-12, floor_above_atol=0)
+                           domain_rejections=0, inertia_shifts=0, line_search_switches=0, residual_floor_n=1e-12,
+                           floor_above_atol=0)
 
 
 def test_a_report_repeats_its_entries_at_top_level_but_force_n():

@@ -1,0 +1,69 @@
+"""The inertia correction (suture_fem/solve/inertia.py) on small symmetric matrices factorised by MUMPS LDL^T."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from petsc4py import PETSc
+
+from suture_fem.solve import inertia
+
+
+def _ksp_and_matrix(dense: np.ndarray):
+    n = len(dense)
+    A = PETSc.Mat().createAIJ([n, n], nnz=n, comm=PETSc.COMM_SELF)
+    for i in range(n):
+        for j in range(n):
+            if dense[i, j] != 0.0 or i == j:  # the diagonal always stored, as in a Jacobian
+                A.setValue(i, j, dense[i, j])
+    A.assemble()
+    A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    ksp = PETSc.KSP().create(PETSc.COMM_SELF)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("cholesky")
+    pc.setFactorSolverType("mumps")
+    ksp.setOperators(A, A)
+    return ksp, A
+
+
+def _diagonal(A) -> np.ndarray:
+    return A.getDiagonal().getArray().copy()
+
+
+def test_a_positive_definite_jacobian_is_left_alone():
+    ksp, A = _ksp_and_matrix(np.array([[4.0, 1.0, 0.0], [1.0, 3.0, 1.0], [0.0, 1.0, 2.0]]))
+    assert inertia.correct(ksp, A) == (False, 0)
+    assert inertia.negative_pivots(ksp) == 0
+    assert _diagonal(A) == pytest.approx([4.0, 3.0, 2.0], abs=0)
+
+
+def test_negative_pivots_are_shifted_away_by_the_smallest_tried_multiple_of_the_diagonal():
+    # [[1, 3], [3, 1]] has eigenvalues 4 and -2: one negative pivot, gone once 1 + tau > 3; tau = 10 is the first
+    dense = np.array([[1.0, 3.0, 0.0], [3.0, 1.0, 0.0], [0.0, 0.0, 5.0]])
+    ksp, A = _ksp_and_matrix(dense)
+    shifted, extra = inertia.correct(ksp, A)
+    tau = inertia.FIRST_SHIFT * inertia.SHIFT_GROWTH ** (extra - 1)
+    assert shifted and inertia.negative_pivots(ksp) == 0
+    assert tau == pytest.approx(10.0)  # 1e-4 ... 1 leave it indefinite
+    assert _diagonal(A) == pytest.approx(np.diag(dense) * (1 + tau))
+    x, b = A.createVecs()
+    b.set(1.0)
+    ksp.solve(b, x)  # the factorisation left in the KSP is that of the shifted matrix
+    assert (A * x).getArray() == pytest.approx(np.ones(3))
+
+
+def test_a_shift_that_makes_the_matrix_singular_is_one_more_try():
+    # [[1, 2], [2, 1]] + tau I has eigenvalues 3 + tau and tau - 1: singular at tau = 1, definite at tau = 10
+    ksp, A = _ksp_and_matrix(np.array([[1.0, 2.0], [2.0, 1.0]]))
+    shifted, extra = inertia.correct(ksp, A)
+    assert shifted and inertia.negative_pivots(ksp) == 0
+    assert _diagonal(A) == pytest.approx([11.0, 11.0])
+
+
+def test_when_no_shift_helps_the_jacobian_is_restored():
+    # a zero diagonal: |diag A| = 0, no multiple of it changes anything
+    ksp, A = _ksp_and_matrix(np.array([[0.0, 1.0], [1.0, 0.0]]))
+    shifted, extra = inertia.correct(ksp, A)
+    assert not shifted and extra == inertia.MAX_TRIES + 1
+    assert _diagonal(A) == pytest.approx([0.0, 0.0], abs=0)

@@ -19,6 +19,8 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
   paper scene, benchmarks/speed.py). Mixed pressure rows and stiffness-proportional damping are not
   symmetric; those scenes, and every fallback solver, use LU (:func:`factor_type`).
 * Energy line search (degree 1): :func:`_potential_form`.
+* Inertia correction (``solver.inertia_correction``, with LDL^T): a Jacobian with negative pivots is
+  shifted until it has none (:mod:`suture_fem.solve.inertia`), so the step goes downhill in energy.
 * Linear solver fallback. When the LU factorisation fails, the next direct solver of
   :data:`FALLBACK_ORDER` is tried for the same step (:meth:`NewtonSolver.next_linear_solver`), and the
   switch is logged.

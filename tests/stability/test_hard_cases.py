@@ -58,14 +58,23 @@ def test_gent_limit_inside_the_ramp_stops_with_exit_3_and_keeps_every_step(subse
     assert res["diagnosis"]["attempted_n"] > res["diagnosis"]["load_reached_n"]
 
 
-def test_trial_states_outside_the_domain_are_rejected_and_the_solve_still_converges(subset, tmp_path):
+@pytest.mark.parametrize("inertia_correction", [False, True])
+def test_trial_states_outside_the_domain_are_rejected_and_the_solve_still_converges(subset, tmp_path,
+                                                                                    inertia_correction):
     """One 0 -> 1 N step: Newton's first iterates invert elements; the guard turns them into a huge finite
-    residual, the line search backtracks, the step is cut, and the ramp ends at the same equilibrium."""
+    residual, the line search backtracks, and the ramp ends at the same equilibrium. Without the inertia
+    correction the step is also cut; with it (the default), whose shifted Jacobians keep the step going
+    downhill where the iterates make the Jacobian indefinite, the one step converges without a cut."""
     one_step = run_inprocess("paper", FAST + ["solver.initial_step=1.0", "solver.max_step=1.0",
-                                              "loading.report_forces_n=[]"], tmp_path / "one")
+                                              "loading.report_forces_n=[]",
+                                              f"solver.inertia_correction={str(inertia_correction).lower()}"],
+                             tmp_path / "one")
     ramped = subset[BASELINE][0]
     assert one_step["status"] == "converged" and one_step["domain_rejections"] > 0
-    assert one_step["cutbacks"] > 0
+    if inertia_correction:
+        assert one_step["cutbacks"] == 0 and one_step["inertia_shifts"] > 0
+    else:
+        assert one_step["cutbacks"] > 0 and one_step["inertia_shifts"] == 0
     # same discrete equilibrium: both stop at |R| <= max(atol = 1e-10 N, round-off floor ~1e-10 N) on a
     # tissue whose softest stiffness is about F / USUM = 400 N/m, so they agree far below 1e-9 relative
     assert one_step["usum_mm"] == pytest.approx(ramped["usum_mm"], rel=1e-9)

@@ -102,7 +102,7 @@ class NewtonSolver(Linearised):
         self._work = self.x.duplicate()  # scratch vector of the unknowns
         self.floor = 0.0  # round-off floor of the residual at the start of the last solve that assembled A (N)
         self.outside_domain = 0
-        self.inertia_shifts = self.extra_factorisations = 0  # inertia.correct's, in the last solve
+        self.inertia_shifts = 0  # Jacobians inertia.correct shifted in the last solve
         self.last_violation: Violation | None = None
         self.options = solver_options
         self.linear_solver = solver_options.linear_solver
@@ -225,9 +225,8 @@ class NewtonSolver(Linearised):
         pc = snes.getKSP().getPC()
         if not (self.options.inertia_correction and pc.getType() == "cholesky" and self.linear_solver == "mumps"):
             return
-        shifted, extra = inertia.correct(snes.getKSP(), A)  # its factorisations count in the linear solve's time
+        shifted, _ = inertia.correct(snes.getKSP(), A)  # its factorisations count in the linear solve's time
         self.inertia_shifts += shifted
-        self.extra_factorisations += extra
         if shifted:  # the factorisation is not the Jacobian's: a tangent or sensitivity solve assembles A again
             self.jacobian_current = False
 
@@ -256,7 +255,7 @@ class NewtonSolver(Linearised):
         """
         self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
         self.jacobian_current = False
-        self.outside_domain = self.inertia_shifts = self.extra_factorisations = 0
+        self.outside_domain = self.inertia_shifts = 0
         self.last_violation = None
         t0 = time.perf_counter()
         a0 = self.timings.assembly + self.timings.guard

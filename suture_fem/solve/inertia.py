@@ -5,12 +5,19 @@ from one it need not be: from rest on the paper scene at P2, the first Newton it
 load step invert elements next to the sharp cone rims, and the Jacobian there has up to 13 negative
 pivots (MUMPS LDL^T reports them). The Newton direction is then not a descent direction of the energy,
 and the backtracking line search creeps with steps of a few percent until the Jacobian is positive
-definite again (measured: 21 Newton iterations for the first 0.4 N, 10 of them with negative pivots;
-then Newton converges in a few). The remedy of Nocedal & Wright (Numerical Optimization, 2nd ed.,
+definite again (measured: 21 Newton iterations for the first 0.4 N, the Jacobians of 11 of them with
+negative pivots; then Newton converges in 9). The remedy of Nocedal & Wright (Numerical Optimization, 2nd ed.,
 Algorithm 3.3, "Cholesky with added multiple of the identity"): factorise A + tau D, D = |diag A|,
 with tau = 1e-4, 1e-3, ... until the factorisation has no negative pivot, and take the Newton step
 with that. Only the iterates with negative pivots are touched; near a stable equilibrium the Jacobian
-is positive definite, so Newton's quadratic convergence and the converged state are unchanged.
+is positive definite, so Newton's quadratic convergence and the converged state are unchanged. Near an
+equilibrium whose Jacobian has a negative pivot (a saddle of the energy: measured on one ramp, docs/speed.md)
+the shifted steps lead elsewhere, to a state without one. Where the line search works on the residual
+norm (degree 2) the correction is not a descent guarantee: the line search's slope is the shifted
+model's; the gains there are measured, not proven.
+
+In parallel, MUMPS reports the inertia of the root front only without ScaLAPACK (ICNTL(13) = 1), which
+:class:`~suture_fem.solve.newton.NewtonSolver` sets when it runs on several ranks with the correction on.
 
 Hand-written because PETSc 3.18's SNES has no such option for an external factorisation (its
 ``pc_factor_shift_type`` applies to PETSc's own factorisations only), and it needs MUMPS's inertia
@@ -87,8 +94,11 @@ def correct(ksp: Any, A: Any) -> tuple[bool, int]:
         A.setDiagonal(original)
         _factorise(ksp, A)
         extra += 1
-    log.debug("inertia correction: %d factorisations, %s", extra, "no shift removed every negative pivot"
-              if failed else f"shift {shift / SHIFT_GROWTH:.0e} |diag A|")
+    if failed:
+        log.info("inertia correction: no shift up to %.0e |diag A| removed every negative pivot; the Newton step "
+                 "uses the indefinite Jacobian", shift / SHIFT_GROWTH)
+    else:
+        log.debug("inertia correction: %d factorisations, shift %.0e |diag A|", extra, shift / SHIFT_GROWTH)
     original.destroy()
     scale.destroy()
     return not failed, extra

@@ -2,7 +2,9 @@
 
 The stepping's tangent predictor (:mod:`suture_fem.solve.stepping`) and the calibration's direct-method
 sensitivities (:mod:`suture_fem.studies.calibrate.sensitivity`) solve with the Jacobian at a converged
-state; the Newton solve has just factorised it (at its last iterate), so each costs one back-substitution.
+state; the Newton solve has just factorised it (at its last iterate), so each costs one back-substitution
+(unless the inertia correction shifted that last factorisation: then A is assembled and factorised again,
+:meth:`Linearised.solve_reduced`).
 A mixin of :class:`~suture_fem.solve.newton.NewtonSolver`, whose attributes it uses.
 """
 

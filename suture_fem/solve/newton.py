@@ -20,7 +20,8 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
   symmetric; those scenes, and every fallback solver, use LU (:func:`factor_type`).
 * Energy line search (degree 1): :func:`_potential_form`.
 * Inertia correction (``solver.inertia_correction``, with LDL^T): a Jacobian with negative pivots is
-  shifted until it has none (:mod:`suture_fem.solve.inertia`), so the step goes downhill in energy.
+  shifted until it has none (:mod:`suture_fem.solve.inertia`): the Newton step of a positive definite
+  model, where the indefinite one made the line search creep.
 * Linear solver fallback. When the LU factorisation fails, the next direct solver of
   :data:`FALLBACK_ORDER` is tried for the same step (:meth:`NewtonSolver.next_linear_solver`), and the
   switch is logged.
@@ -131,6 +132,8 @@ class NewtonSolver(Linearised):
         }
         if self.linear_solver == "mumps":
             base["mat_mumps_icntl_14"] = 200  # extra workspace: stiff suture + soft tissue fill-in
+            if o.inertia_correction and self.physics.comm.size > 1:  # the root front's inertia too (inertia.py)
+                base["mat_mumps_icntl_13"] = 1
         base.update({str(k): v for k, v in o.petsc_options.items()})
         if base["pc_type"] == "cholesky":  # MUMPS then reads one triangle of A: declare the symmetry, for good
             self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)

@@ -47,10 +47,12 @@ def test_negative_pivots_are_shifted_away_by_the_smallest_tried_multiple_of_the_
     assert shifted and inertia.negative_pivots(ksp) == 0
     assert tau == pytest.approx(10.0)  # 1e-4 ... 1 leave it indefinite
     assert _diagonal(A) == pytest.approx(np.diag(dense) * (1 + tau))
+    state = A.stateGet()
     x, b = A.createVecs()
     b.set(1.0)
-    ksp.solve(b, x)  # the factorisation left in the KSP is that of the shifted matrix
+    ksp.solve(b, x)  # solves with the shifted matrix; the solve itself leaves A as it is
     assert (A * x).getArray() == pytest.approx(np.ones(3))
+    assert A.stateGet() == state
 
 
 def test_a_shift_that_makes_the_matrix_singular_is_one_more_try():
@@ -62,8 +64,20 @@ def test_a_shift_that_makes_the_matrix_singular_is_one_more_try():
 
 
 def test_when_no_shift_helps_the_jacobian_is_restored():
-    # a zero diagonal: |diag A| = 0, no multiple of it changes anything
-    ksp, A = _ksp_and_matrix(np.array([[0.0, 1.0], [1.0, 0.0]]))
+    # eigenvalues 1 +- 1e4: the shifts change the diagonal, but the largest tried (1e3 |diag A|) stays below 1e4
+    ksp, A = _ksp_and_matrix(np.array([[1.0, 1e4], [1e4, 1.0]]))
     shifted, extra = inertia.correct(ksp, A)
     assert not shifted and extra == inertia.MAX_TRIES + 1
-    assert _diagonal(A) == pytest.approx([0.0, 0.0], abs=0)
+    assert _diagonal(A) == pytest.approx([1.0, 1.0], abs=0)
+    assert inertia.negative_pivots(ksp) == 1  # factorised again as it was
+
+
+def test_a_failed_first_factorisation_is_left_to_the_solver():
+    # singular: MUMPS fails (INFOG(1) < 0), nothing is shifted, and the solve reports the failed factorisation
+    ksp, A = _ksp_and_matrix(np.array([[1.0, 1.0], [1.0, 1.0]]))
+    assert inertia.correct(ksp, A) == (False, 0)
+    assert inertia.negative_pivots(ksp) is None
+    x, b = A.createVecs()
+    b.set(1.0)
+    ksp.solve(b, x)
+    assert ksp.getConvergedReason() < 0

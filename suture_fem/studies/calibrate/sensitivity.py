@@ -7,7 +7,8 @@ act on the unknowns SNES solves for (u = T x, :class:`~suture_fem.solve.reductio
 fixed dofs stay fixed. The calibration's ramps hand the converged Newton solver to their report
 callback (:func:`~suture_fem.solve.stepping.ramp` with ``with_solver``), and A's factorisation from
 its last iteration (inside the solve's tolerance of the converged state) solves for every parameter
-of that state: no assembly, no factorisation (reproduce's USUM bands get it too, through
+of that state: no assembly, no factorisation, unless the inertia correction shifted that last
+factorisation (then A is assembled and factorised once; reproduce's USUM bands get it too, through
 ``outputs.newton``). Callers without a solver (a stopped ramp's last report) get A assembled once more
 at the state and factorised once (MUMPS LU).
 
@@ -143,7 +144,8 @@ class Sensitivity:
         """Du/dp for every key, as local arrays of the state.
 
         With ``solver`` (the NewtonSolver that just converged) its factorisation solves A du/dp = -dR/dp
-        (no assembly, no factorisation); without, A is assembled and factorised once here for every key.
+        (no assembly, no factorisation, unless its last one was shifted by the inertia correction); without,
+        A is assembled and factorised once here for every key.
         """
         if solver is not None:
             return self._derivatives(keys, solver.reduction.T, solver.solve_reduced)

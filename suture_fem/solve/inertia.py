@@ -94,7 +94,6 @@ def correct(ksp: Any, A: Any) -> tuple[bool, int]:
         A.setDiagonal(original)
         _factorise(ksp, A)
         extra += 1
-    if failed:
         log.info("inertia correction: no shift up to %.0e |diag A| removed every negative pivot; the Newton step "
                  "uses the indefinite Jacobian", shift / SHIFT_GROWTH)
     else:

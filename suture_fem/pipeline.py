@@ -30,7 +30,7 @@ from suture_fem.physics.problem import build_physics
 from suture_fem.scene import Scene, parse_scene
 from suture_fem.solve.records import Timings
 from suture_fem.solve.stepping import ramp
-from suture_fem.support.errors import SceneError, SolveStopped, SutureFemError
+from suture_fem.support.errors import SceneError, SolveStopped, StopCause, SutureFemError
 from suture_fem.support.io import remove
 from suture_fem.support.parallel import on_root
 
@@ -80,6 +80,7 @@ def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: On
     outputs = _build(scene, comm, clock)
     steps = LoadSteps(scene, outputs, out, clock, on_report)
     try:
+        _check_axial_support(scene)
         steps.open_fields()
         history = ramp(outputs.physics, scene, steps.converged, clock.timings, with_solver=True)
         steps.close()
@@ -88,6 +89,16 @@ def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: On
         raise
     steps.finished(history)
     return steps.results
+
+
+def _check_axial_support(scene: Scene) -> None:
+    """Stop with a diagnosis when nothing can hold the pull: a sliding thread with no cone."""
+    if scene.effects.thread_interface == "sliding" and scene.geometry.cones == 0:
+        first = scene.loading.force_n * scene.solver.initial_step
+        raise SolveStopped(StopCause.NO_AXIAL_SUPPORT, 0.0, first,
+                           'effects.thread_interface = "sliding" with geometry.cones = 0: a frictionless thread in its '
+                           "track passes no axial force to the tissue, so no state balances a pull (the tissue holds "
+                           "the thread only through the cones)")
 
 
 #: What a run writes in its output folder; removed before a new run writes there (pictures by the cli).
@@ -124,7 +135,7 @@ def _fresh_outputs(out: Path) -> None:
 def _build(scene: Scene, comm: Any, clock: _Clock) -> Outputs:
     """Mesh, physics and the outputs of the scene (the physics is ``outputs.physics``), timed."""
     t0 = time.perf_counter()
-    tagged = meshmod.create_mesh(comm, scene.geometry, scene.mesh)
+    tagged = meshmod.scene_mesh(comm, scene)
     clock.meshing = time.perf_counter() - t0
     t0 = time.perf_counter()
     physics = build_physics(tagged, scene)

@@ -35,21 +35,26 @@ class TaggedMesh:
     sizes: MeshSizes
 
 
-def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: MeshSection) -> TaggedMesh:
-    """Build the mesh of a scene on rank 0 of ``comm`` and distribute it (coordinates in metres)."""
+def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: MeshSection,
+                split_thread: bool = False) -> TaggedMesh:
+    """Build the mesh of a scene on rank 0 of ``comm`` and distribute it (coordinates in metres).
+
+    ``split_thread``: the tissue gets its own nodes along the bare thread, tagged ``track``
+    (``effects.thread_interface = "sliding"``; :func:`~suture_fem.geometry.gmsh_model.split_thread_track`).
+    """
     geometry = Geometry.from_section(geometry_section)
     sizes = MeshSizes.from_section(mesh_section)
     if comm.rank == 0:
         with compat.gmsh_session() as gmsh:
             try:
                 on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes, "suture",
-                        mesh_section.geometry_degree)
+                        mesh_section.geometry_degree, split_thread)
                 mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
             finally:
                 gmsh.model.remove()
     else:
         on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes, "suture",  # rank 0's outcome, on every rank
-                mesh_section.geometry_degree)
+                mesh_section.geometry_degree, split_thread)
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.geometry.x[:, :2] *= MM
     folded = mesh.comm.allreduce(folded_cells(mesh)) if geometry_degree(mesh) == 2 else 0
@@ -57,6 +62,16 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
         raise SceneError(f"mesh.geometry_degree = 2: {folded} quadratic cell(s) on the fillet arcs fold over (their "
                          f"Jacobian changes sign); raise mesh.fillet_elements (now {mesh_section.fillet_elements})")
     return TaggedMesh(mesh, cell_tags, facet_tags, geometry, sizes)
+
+
+def splits_thread(scene: Any) -> bool:
+    """Whether a scene's mesh gives the tissue its own nodes along the thread (a sliding thread)."""
+    return scene.effects.thread_interface == "sliding"
+
+
+def scene_mesh(comm: Any, scene: Any) -> TaggedMesh:
+    """:func:`create_mesh` of a scene (its geometry, mesh and thread interface)."""
+    return create_mesh(comm, scene.geometry, scene.mesh, split_thread=splits_thread(scene))
 
 
 def check_msh_path(path: str | Path) -> Path:
@@ -98,7 +113,8 @@ def _write_checked(gmsh: Any, path: Path) -> None:
 GMSH_TRIANGLE6 = 9
 
 
-def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path: str | Path) -> dict[str, Any]:
+def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path: str | Path,
+              split_thread: bool = False) -> dict[str, Any]:
     """Write a scene's mesh as a gmsh .msh file (mm) with a JSON record of its parameters beside it.
 
     Raises SceneError when ``path`` is a folder or does not end in .msh (before meshing), WriteError
@@ -111,7 +127,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
     sizes = MeshSizes.from_section(mesh_section)
     with compat.gmsh_session() as gmsh:
         try:
-            build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree)
+            build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree, split_thread=split_thread)
             _write_checked(gmsh, path)
             nodes = len(gmsh.model.mesh.getNodes()[0])
             types, tags, _ = gmsh.model.mesh.getElements(2)
@@ -124,6 +140,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
         "nodes": nodes,
         "triangles": int(cells),
         "geometry_degree": 2 if GMSH_TRIANGLE6 in types else 1,
+        "thread_track_split": split_thread,
         "cell_tags": CELL_TAGS,
         "facet_tags": FACET_TAGS,
         "geometry": geometry.describe(),

@@ -36,6 +36,9 @@ class Facet(IntEnum):
     THREAD_FAR_FACE = 16
     INTERFACE = 17
     THREAD_FREE_SIDE = 18
+    #: the tissue's side of a sliding thread's track (``effects.thread_interface = "sliding"``): its own
+    #: nodes, coincident with the thread's surface nodes (which keep the tag ``interface``)
+    TRACK = 19
 
 
 #: The material regions, tissue layers inside out, then the suture.

@@ -23,6 +23,7 @@ from suture_fem.outputs.energy import StrainEnergy
 from suture_fem.outputs.eptoeqv import Eptoeqv
 from suture_fem.outputs.fields import cell_maxima
 from suture_fem.outputs.fillet_peak import FilletPeak
+from suture_fem.outputs.interface import Interface
 from suture_fem.outputs.jacobian import JRange
 from suture_fem.outputs.reaction import Reaction
 from suture_fem.outputs.seqv import Seqv
@@ -33,7 +34,7 @@ from suture_fem.scene.schema import OutputSection
 
 #: Every quantity, in the order of the record; a scene's ``output.quantities`` selects the optional ones.
 QUANTITIES: tuple[type[Quantity], ...] = (ThreadEnd, StrainEnergy, Reaction, Usum, Seqv, Eptoeqv, FilletPeak,
-                                          CriticalDistance, JRange)
+                                          CriticalDistance, JRange, Interface)
 
 #: (value, location in mm, region) of the largest maximum found so far.
 Best = tuple[float, Any, str]

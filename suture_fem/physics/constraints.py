@@ -106,6 +106,24 @@ def supports(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[list[Any], np.ndarra
     return bcs, np.asarray(outer_z, dtype=np.int32)
 
 
+def thread_track(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, int]:
+    """A sliding thread's track: u_r = 0 on the tissue's side of it (facets tagged ``track``).
+
+    Returns the condition and the global number of track nodes it holds. A mesh without the track
+    (built without ``split_thread``) is an error: the thread would stay tied.
+    """
+    mesh = tagged.mesh
+    fdim = mesh.topology.dim - 1
+    track = meshmod.facets(tagged, regions.Facet.TRACK)
+    if mesh.comm.allreduce(len(track)) == 0:
+        raise ValueError('effects.thread_interface = "sliding" needs the mesh built with the thread\'s track split '
+                         "(geometry.mesh.scene_mesh, or create_mesh(..., split_thread=True))")
+    dofs = dolfinx.fem.locate_dofs_topological(W_u.sub(0), fdim, track)
+    bc = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), dofs, W_u.sub(0))
+    _, owned = bc.dof_indices()  # the dofs, owned ones first, and how many are owned
+    return bc, mesh.comm.allreduce(int(owned))
+
+
 def pinned_pressure(tagged: meshmod.TaggedMesh, W: Any) -> tuple[Any, dict[str, int]]:
     """Mixed formulation: pressure unknowns that touch no tissue cell have no equation, so pin them to 0.
 

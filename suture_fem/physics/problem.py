@@ -49,7 +49,14 @@ from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.regions import REGION_OF_TAG, REGION_TAGS, REGIONS
 from suture_fem.physics import kinematics
-from suture_fem.physics.constraints import Unknowns, classify_dofs, pinned_pressure, rigid_suture, supports
+from suture_fem.physics.constraints import (
+    Unknowns,
+    classify_dofs,
+    pinned_pressure,
+    rigid_suture,
+    supports,
+    thread_track,
+)
 from suture_fem.physics.effects import (
     Dynamics,
     Effects,
@@ -78,6 +85,8 @@ class Physics:
         traction: the axial traction on the pulled face (Pa), set by the load stepping.
         gravity_factor: 0..1 multiplier of the weight (None without gravity).
         terms: residual contributions by effect (UFL forms); residual, jacobian: their sum and its derivative.
+        tissue_residual: the residual's integrals over the tissue's cells (at an interface node, the force
+            the suture applies to the tissue; :mod:`suture_fem.outputs.interface`).
         bcs: Dirichlet conditions, in W (zero, except u_z = d on a rigid suture).
         energy: strain energy (J); end_displacement: 2 pi r-weighted integral of u_z over the pulled face.
         outer_z_dofs: the outer surface's u_z dofs (where the reaction force is read); pull_area: pi r_t^2.
@@ -103,6 +112,7 @@ class Physics:
     terms: dict[str, Any]
     residual: Any
     jacobian: Any
+    tissue_residual: Any
     bcs: list[Any]
     energy: Any
     end_displacement: Any
@@ -270,6 +280,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         terms=terms.by_name(),
         residual=residual,
         jacobian=jacobian,
+        tissue_residual=restricted(residual, regions.TISSUE),
         bcs=constraints.bcs,
         energy=strain_energy(ctx, F, effects.rigid),
         end_displacement=kinematics.axial(u) * ctx.weight * ctx.ds(regions.Facet.PULL_FACE),
@@ -285,6 +296,22 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         notes=_notes(tagged, effects, scene.effects, dynamics, constraints.notes),
         parameters=parameters,
     )
+
+
+def restricted(form: Any, tags: tuple[int, ...]) -> Any:
+    """The cell integrals of a form over the given cell tags only (every term is written per region).
+
+    Applied to the residual with the tissue's tags it is the tissue's part of the residual: at an
+    interface node, the force the suture applies to the tissue.
+    """
+    wanted = set(int(t) for t in tags)
+    kept = []
+    for integral in form.integrals():
+        ids = integral.subdomain_id()
+        ids = set(int(i) for i in (ids if isinstance(ids, tuple) else (ids,))) if ids != "everywhere" else None
+        if integral.integral_type() == "cell" and ids is not None and ids <= wanted:
+            kept.append(integral)
+    return ufl.Form(kept)
 
 
 def _displacement_of(mixed: bool) -> Callable[[Any], Any]:
@@ -358,6 +385,10 @@ def _constraints(tagged: meshmod.TaggedMesh, effects: Effects, spaces: _Spaces) 
     if effects.mixed:
         pin, notes["mixed"] = pinned_pressure(tagged, spaces.W)
         bcs.append(pin)
+    if effects.sliding_thread:
+        track, held = thread_track(tagged, spaces.W_u)
+        bcs.append(track)
+        notes["interfaces"] = {"track_nodes": held}
     rigid = rigid_suture(tagged, spaces.W, spaces.W_u) if effects.rigid else None
     if rigid is not None:
         # the constraint as boundary conditions, so everything that reads bcs sees which dofs are

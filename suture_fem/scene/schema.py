@@ -216,7 +216,7 @@ class OutputSection:
     rim_exclusion_mm: float = key(_pos(100.0, lo_open=False), MM)
     critical_distance_mm: float = key(_pos(10.0, lo_open=False), MM)
     critical_distance_layers: bool = key(Rule("bool"))
-    quantities: tuple[str, ...] = key(Rule("strs", choices=("usum", "seqv", "eptoeqv")))
+    quantities: tuple[str, ...] = key(Rule("strs", choices=("usum", "seqv", "eptoeqv", "interface")))
 
 
 @dataclass(frozen=True)
@@ -238,6 +238,7 @@ class EffectsSection:
     time_step_s: float = key(_pos(1e6), S)
     gravity_m_s2: float = key(_pos(1e3, lo_open=False), "m/s^2")
     gravity_direction: str = key(Rule("str", choices=("-z", "+z")))
+    thread_interface: str = key(Rule("str", choices=("tied", "sliding")))
 
     def density(self, region: str) -> float:
         """Mass density (kg/m^3) of a material region."""

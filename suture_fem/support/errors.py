@@ -22,6 +22,9 @@ class StopCause(StrEnum):
     NEWTON_DIVERGENCE = "newton_divergence"
     #: the direct linear solver failed (and no fallback was left)
     LINEAR_SOLVER = "linear_solver"
+    #: nothing holds the thread axially: a frictionless sliding thread with no cone tied to the tissue
+    #: passes no axial force, so no equilibrium exists under a pulling force
+    NO_AXIAL_SUPPORT = "no_axial_support"
 
 
 class SutureFemError(Exception):

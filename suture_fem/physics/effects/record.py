@@ -12,7 +12,7 @@ from suture_fem.scene.model import Scene
 from suture_fem.support.errors import SceneError
 
 #: The output quantities a scene may request (``output.quantities``), in the order they are computed.
-QUANTITIES = ("usum", "seqv", "eptoeqv")
+QUANTITIES = ("usum", "seqv", "eptoeqv", "interface")
 #: Why the hold is not solved when nothing in the scene depends on the rate.
 HOLD_SKIPPED = (
     "hold skipped: no rate-dependent effect in the scene (inertia off, every material rate-independent), "
@@ -30,6 +30,7 @@ class Effects:
     gravity: bool = False
     quantities: tuple[str, ...] = QUANTITIES
     hold_s: float = 0.0
+    thread_interface: str = "tied"
 
     @classmethod
     def from_scene(cls, scene: Scene) -> Effects:
@@ -42,12 +43,18 @@ class Effects:
             gravity=e.gravity,
             quantities=tuple(q for q in QUANTITIES if q in scene.output.quantities),
             hold_s=scene.loading.hold_s,
+            thread_interface=e.thread_interface,
         )
 
     @property
     def rigid(self) -> bool:
         """The suture is rigid (``effects.suture = "rigid"``)."""
         return self.suture == "rigid"
+
+    @property
+    def sliding_thread(self) -> bool:
+        """The bare thread slides in its track (``effects.thread_interface = "sliding"``)."""
+        return self.thread_interface == "sliding"
 
     @property
     def mixed(self) -> bool:
@@ -68,6 +75,7 @@ class Effects:
             "incompressibility": self._incompressibility(notes),
             "gravity": {"on": True, **notes.get("gravity", {})} if self.gravity else {
                 "on": False, "left_out": "effects.gravity = false: no body force"},
+            "interfaces": self._interfaces(notes),
             "hold": self._hold(),
             "outputs": self._outputs(),
         }
@@ -91,6 +99,16 @@ class Effects:
                     "Taylor-Hood P2 displacement / P1 pressure in the tissue", **notes.get("mixed", {})}
         return {"on": True, "treatment": "displacement",
                 "left_out": "effects.incompressibility = \"displacement\": no pressure field"}
+
+    def _interfaces(self, notes: dict[str, Any]) -> dict[str, Any]:
+        rec: dict[str, Any] = {"thread": self.thread_interface, "cones": "tied"}
+        if self.sliding_thread:
+            rec["thread_model"] = ("bilateral frictionless sliding: the tissue's side of the thread's track has its "
+                                   "own nodes, held at r = thread radius (u_r = 0) and free along it")
+        else:
+            rec["thread_model"] = "tied: the thread and the tissue share their interface nodes (the paper's model)"
+        rec["cone_model"] = "tied: the cones and the tissue share their interface nodes"
+        return {**rec, **notes.get("interfaces", {})}
 
     def _hold(self) -> dict[str, Any]:
         if self.inertia and self.hold_s > 0:

@@ -64,7 +64,7 @@ class Case:
     def __init__(self, scene: Scene, comm: Any, cost: Cost):
         """Mesh and physics of ``scene`` (its cone count and geometry)."""
         self.scene, self.comm, self.cost = scene, comm, cost
-        tagged = meshmod.create_mesh(comm, scene.geometry, scene.mesh)
+        tagged = meshmod.scene_mesh(comm, scene)
         self.physics = build_physics(tagged, scene)
         self.sensitivity = Sensitivity(self.physics, scene.output)
         self.states: tuple[dict[str, float], list[str], dict[float, Any]] | None = None  # for warm starts

@@ -1,0 +1,334 @@
+"""What the suture passes to the tissue through each cone and the bare thread: load shares and tractions.
+
+The force the suture applies to the tissue at an interface node is the tissue's own part of the
+residual there: the residual's integrals over tissue cells only (elastic, pressure, gravity and
+inertia terms of the three layers; ``Physics.tissue_residual``), assembled at the converged state.
+Summed over the tissue's interface nodes its axial component is the pull the tissue carries (at
+equilibrium the outer surface's reaction), whatever the interface model: shared nodes (tied), or
+the tissue's own nodes on a sliding thread's track. It is split by where the node sits:
+
+* ``cone_k``: a node of a cone cell's interface (the junctions where a cone meets the thread
+  included), k = 1 the cone farthest from the pulled end;
+* ``thread``: every other interface node (the bare thread, inside a hollow cone's cavity included).
+
+``load_share_n`` gives each part's axial force (N); the parts sum to the pull to solver tolerance.
+
+Tractions: dividing a node's force by its 2 pi r-weighted lumped area (the facets' integral of its
+shape function) gives the nominal traction (force per reference area; exact for a uniform traction
+on straight facets, a smeared nodal value at corners). Its component along the suture's outward
+normal (the tissue's inward one, averaged over the node's facets) is the contact pressure ``p``
+(positive: the suture presses on the tissue; negative: it pulls the tissue after it, which only a
+tied interface can); the component along the interface's tangent, oriented along increasing arc
+length, is the shear ``tau``. Each part's profile is ordered by arc length ``s`` (mm) along the
+suture's outline: along a cone from its apex on the thread, around its outer surface and (hollow) its
+inside, to where it meets the thread again; along the thread from the far tissue face, s = z.
+
+A sliding thread's track also gives the ``slip`` (mm): how far the thread has slid through the tissue
+at each track node (the reference position along the thread of the thread point that faces the node
+now, found by interpolation along the thread's deformed surface, subtracted from the node's own), and
+the track's largest ``gap`` (mm): the thread surface's radial contraction there, which the track
+(held at the thread's reference radius) does not follow.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry import regions
+from suture_fem.geometry.regions import MM, Facet
+from suture_fem.outputs.base import Quantity, Setup, State
+from suture_fem.physics.constraints import mark_dofs
+from suture_fem.support import compat
+
+#: The name of the bare thread's part.
+THREAD = "thread"
+
+
+def part_names(cones: int) -> list[str]:
+    """The parts of the interface, in the order of the record: ``cone_1`` (farthest from the pull) ..., then the thread."""
+    return [f"cone_{k + 1}" for k in range(cones)] + [THREAD]
+
+
+class Interface(Quantity):
+    """``load_share_n``, ``load_share_total_n`` and ``interface`` (the profiles by part) at a reported force."""
+
+    option = "interface"
+
+    def __init__(self, setup: Setup):
+        super().__init__(setup)
+        physics = setup.physics
+        self.physics = physics
+        V = physics.V
+        mesh = physics.mesh
+        fdim = mesh.topology.dim - 1
+        mesh.topology.create_connectivity(fdim, mesh.topology.dim)
+        facets = np.concatenate([meshmod.facets(physics.tagged, Facet.INTERFACE),
+                                 meshmod.facets(physics.tagged, Facet.TRACK)])
+        on_facets = np.zeros(_nodes(V), dtype=bool)
+        on_facets[dolfinx.fem.locate_dofs_topological(V, fdim, facets)] = True
+        tissue = _node_mask(V, meshmod.region_cells(physics.tagged, regions.TISSUE))
+        cone = _node_mask(V, meshmod.region_cells(physics.tagged, regions.Cell.CONE))
+        self.n_owned = V.dofmap.index_map.size_local
+        nodes = np.flatnonzero(on_facets & tissue)
+        self.nodes = nodes[nodes < self.n_owned]
+        self.xy_mm = V.tabulate_dof_coordinates()[self.nodes, :2] / MM
+        g = physics.tagged.geometry
+        self.geometry = g
+        self.names = part_names(len(g.cones))
+        self.part = np.full(len(self.nodes), len(g.cones), dtype=np.int32)  # the thread unless on a cone cell
+        for k, c in enumerate(g.cones):
+            lo, hi = min(c.base_z, c.apex_z), max(c.base_z, c.apex_z)
+            tol = 1e-9 * max(g.z_end, 1.0)
+            in_cone = cone[self.nodes] & (self.xy_mm[:, 1] >= lo - tol) & (self.xy_mm[:, 1] <= hi + tol)
+            self.part[in_cone] = k
+        self.track = np.zeros(len(self.nodes), dtype=bool)
+        if physics.effects.sliding_thread:
+            on_track = np.zeros(_nodes(V), dtype=bool)
+            on_track[dolfinx.fem.locate_dofs_topological(V, fdim, meshmod.facets(physics.tagged, Facet.TRACK))] = True
+            self.track = on_track[self.nodes]
+        thread_cells = meshmod.region_cells(physics.tagged, regions.Cell.THREAD)
+        thread = _node_mask(V, thread_cells)
+        xy = V.tabulate_dof_coordinates()[:, :2] / MM
+        surface = thread & (np.abs(xy[:, 0] - g.r_thread) < 1e-9 * max(g.z_end, 1.0))
+        self.thread_surface = np.flatnonzero(surface[: self.n_owned])
+        self._area_normal: tuple[np.ndarray, np.ndarray] | None = None
+
+    @staticmethod
+    def describe(output: Any) -> dict[str, str]:
+        """Where the load shares and tractions come from."""
+        return {"load_share_n": "axial force the suture passes to the tissue through each cone and the bare thread: "
+                                "the tissue's part of the residual summed over its interface nodes (N)",
+                "interface": "nominal contact pressure and shear at the tissue's interface nodes (nodal force over "
+                             "the 2 pi r-weighted lumped reference area) against arc length along each part"}
+
+    def totals(self, state: State) -> dict[str, Any]:
+        """The load shares and the interface's profiles (collective; the profiles are complete on every rank)."""
+        physics = self.physics
+        comm = physics.comm
+        force = self._tissue_forces()
+        area, normal = self._areas_normals()
+        fz = force[:, 1]
+        shares = np.array([float(np.sum(fz[self.part == k])) for k in range(len(self.names))])
+        shares = comm.allreduce(shares)
+        u = physics.u.x.array.reshape(-1, 2)
+        local = {
+            "xy": self.xy_mm, "force": force, "area": area[self.nodes], "normal": normal[self.nodes],
+            "part": self.part, "track": self.track, "u": u[self.nodes] / MM,
+            "thread_xy": (physics.V.tabulate_dof_coordinates()[self.thread_surface, :2] / MM),
+            "thread_u": u[self.thread_surface] / MM,
+        }
+        gathered = comm.allgather(local)
+        merged = {key: np.concatenate([g[key] for g in gathered]) for key in local}
+        profiles = _profiles(merged, self.geometry, self.names)
+        total = float(np.sum(shares))
+        return {
+            "load_share_n": {name: float(v) for name, v in zip(self.names, shares)},
+            "load_share_total_n": total,
+            "interface": {
+                "thread": physics.effects.thread_interface,
+                "cones": "tied",
+                "profiles": profiles,
+                **_track_summary(merged, profiles),
+            },
+        }
+
+    def _tissue_forces(self) -> np.ndarray:
+        """The tissue's part of the residual at the interface nodes: (n, 2) forces (N) on the tissue."""
+        physics = self.physics
+        b = dolfinx.fem.petsc.assemble_vector(physics.form("tissue_residual"))
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        values = b.array.copy()
+        b.destroy()
+        if physics.u_in_state is not None:  # mixed: the displacement part of the state's vector
+            owned = np.asarray(physics.u_in_state)[: 2 * self.n_owned]
+            values = values[owned]
+        return values[: 2 * self.n_owned].reshape(-1, 2)[self.nodes]
+
+    def _areas_normals(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each owned node's 2 pi r-weighted lumped interface area (m^2) and the suture's outward unit normal there.
+
+        Assembled once (the reference configuration): the facets of a tied interface are interior
+        facets between a tissue and a suture cell (their tissue-side normal picked by a cellwise tissue
+        indicator); a track's facets are the tissue's boundary.
+        """
+        if self._area_normal is None:
+            physics = self.physics
+            V, mesh = physics.V, physics.mesh
+            chi = dolfinx.fem.Function(compat.scalar_space(mesh, "DG", 0))
+            chi.x.array[:] = 0.0
+            tissue_cells = meshmod.region_cells(physics.tagged, regions.TISSUE)
+            chi.x.array[compat.cell_dofs(chi.function_space)[tissue_cells].ravel()] = 1.0
+            compat.scatter_reverse_add(chi.x)  # a ghost cell's mark reaches its owner, then every copy
+            chi.x.array[:] = np.minimum(chi.x.array, 1.0)
+            chi.x.scatter_forward()
+            v = ufl.TestFunction(V)
+            n = ufl.FacetNormal(mesh)
+            x = ufl.SpatialCoordinate(mesh)
+            w = 2 * math.pi * x[0]
+            dS = ufl.Measure("dS", domain=mesh, subdomain_data=physics.tagged.facet_tags)
+            ds = ufl.Measure("ds", domain=mesh, subdomain_data=physics.tagged.facet_tags)
+            n_tissue = chi("+") * n("+") + chi("-") * n("-")  # the tissue's outward normal on a tied facet
+            one = ufl.as_vector([1.0, 0.0])
+            forms = (w("+") * ufl.dot(one, v("+")) * dS(int(Facet.INTERFACE))
+                     + w * ufl.dot(one, v) * ds(int(Facet.TRACK)),
+                     w("+") * ufl.dot(n_tissue, v("+")) * dS(int(Facet.INTERFACE))
+                     + w * ufl.dot(n, v) * ds(int(Facet.TRACK)))
+            out = []
+            for form in forms:
+                b = dolfinx.fem.petsc.assemble_vector(compat.form(form))
+                b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                out.append(b.array[: 2 * self.n_owned].reshape(-1, 2).copy())
+                b.destroy()
+            area = out[0][:, 0]
+            normal = -out[1]  # the suture's outward normal = minus the tissue's
+            length = np.linalg.norm(normal, axis=1)
+            normal = np.divide(normal, length[:, None], out=np.zeros_like(normal), where=length[:, None] > 0)
+            self._area_normal = (area, normal)
+        return self._area_normal
+
+
+def _nodes(V: Any) -> int:
+    """Local nodes (owned and ghost) of a blocked space."""
+    return V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
+
+
+def _node_mask(V: Any, cells: np.ndarray) -> np.ndarray:
+    """Per local node of V: touched by any of the cells on any rank."""
+    return mark_dofs(V, cells).reshape(-1, V.dofmap.index_map_bs).any(axis=1)
+
+
+def _arc_coordinate(points: np.ndarray, outline: list) -> np.ndarray:
+    """Arc length (mm) of each point's nearest position on a cone's outline, from the outline's first point.
+
+    The outline (:class:`~suture_fem.geometry.section.Cone`) starts on the thread at the apex, runs round
+    the cone's tissue-facing surface and closes along the thread.
+    """
+    best = np.full(len(points), np.inf)
+    s_best = np.zeros(len(points))
+    start = 0.0
+    for kind, pts in outline:
+        if kind == "line":
+            p, q = np.array(pts[0]), np.array(pts[1])
+            d = q - p
+            length = float(np.linalg.norm(d))
+            t = np.clip(((points - p) @ d) / max(length**2, 1e-300), 0.0, 1.0)
+            dist = np.linalg.norm(points - (p + t[:, None] * d), axis=1)
+            s = start + t * length
+        else:
+            p, c, q = (np.array(v) for v in pts)
+            radius = float(np.linalg.norm(p - c))
+            a0 = math.atan2(*(p - c)[::-1])
+            sweep = (math.atan2(*(q - c)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi
+            ang = np.arctan2(points[:, 1] - c[1], points[:, 0] - c[0]) - a0
+            ang = (ang + math.pi) % (2 * math.pi) - math.pi
+            t = np.clip(ang / sweep if sweep else 0.0, 0.0, 1.0)
+            on = c + radius * np.stack([np.cos(a0 + t * sweep), np.sin(a0 + t * sweep)], axis=1)
+            dist = np.linalg.norm(points - on, axis=1)
+            length = abs(sweep) * radius
+            s = start + t * length
+        closer = dist < best - 1e-9  # a tie (a corner shared by two segments) keeps the earlier arc length
+        best[closer], s_best[closer] = dist[closer], s[closer]
+        start += length
+    return s_best
+
+
+def _tangents(normal: np.ndarray) -> np.ndarray:
+    """The unit tangent of each normal (the normal turned by -90 degrees: (n_z, -n_r)); oriented later."""
+    return np.stack([normal[:, 1], -normal[:, 0]], axis=1)
+
+
+def _profiles(m: dict[str, np.ndarray], g: Any, names: list[str]) -> dict[str, dict[str, Any]]:
+    """Each part's pressure, shear (Pa), slip (mm) against arc length, ordered (all ranks' nodes merged)."""
+    out: dict[str, dict[str, Any]] = {}
+    area = np.maximum(m["area"], 1e-300)
+    traction = m["force"] / area[:, None]
+    pressure = np.sum(traction * m["normal"], axis=1)
+    for k, name in enumerate(names):
+        sel = np.flatnonzero(m["part"] == k)
+        xy = m["xy"][sel]
+        if name == THREAD:
+            s = xy[:, 1]
+        else:
+            s = _arc_coordinate(xy, g.cones[k].outline)
+        order = np.lexsort((xy[:, 1], xy[:, 0], s))  # by arc length, ties by position: the same on any partition
+        sel, s = sel[order], s[order]
+        tangent = _tangents(m["normal"][sel])
+        if len(sel) > 1:  # orient along increasing s
+            ds_dir = np.gradient(m["xy"][sel], s, axis=0) if np.ptp(s) > 0 else tangent
+            flip = np.sum(tangent * ds_dir, axis=1) < 0
+            tangent[flip] *= -1
+        shear = np.sum(traction[sel] * tangent, axis=1)
+        prof: dict[str, Any] = {
+            "s_mm": _rounded(s),
+            "r_mm": _rounded(m["xy"][sel, 0]),
+            "z_mm": _rounded(m["xy"][sel, 1]),
+            "pressure_pa": _rounded(pressure[sel]),
+            "shear_pa": _rounded(shear),
+            "axial_force_n": float(np.sum(m["force"][sel, 1])),
+        }
+        if len(sel):
+            peak = int(np.argmax(pressure[sel]))
+            prof["peak_pressure_pa"] = float(pressure[sel][peak])
+            prof["peak_pressure_at_mm"] = [float(v) for v in m["xy"][sel[peak]]]
+        if name == THREAD and np.any(m["track"][sel]):
+            prof["slip_mm"] = _rounded(_slip(m, sel))
+        out[name] = prof
+    return out
+
+
+def _slip(m: dict[str, np.ndarray], sel: np.ndarray) -> np.ndarray:
+    """How far the thread has slid through the tissue at each track node (mm; NaN where no thread faces it).
+
+    The thread's surface nodes give its deformed axial position z(Z) = Z + u_z(Z), monotone along it;
+    the thread point facing a track node now is Z_t with z(Z_t) = the node's deformed z, and the slip
+    is the node's reference Z minus Z_t (positive toward the pull).
+    """
+    tz, order = _thread_map(m)
+    Z = m["xy"][sel, 1]
+    z_now = Z + m["u"][sel, 1]
+    facing = np.interp(z_now, tz[order], m["thread_xy"][order, 1], left=np.nan, right=np.nan)
+    slip = Z - facing
+    return np.where(m["track"][sel], slip, 0.0)
+
+
+def _thread_map(m: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The thread surface's deformed axial positions and their sorting order (unique reference nodes)."""
+    Z = m["thread_xy"][:, 1]
+    _, first = np.unique(np.round(Z, 12), return_index=True)
+    tz = Z + m["thread_u"][:, 1]
+    keep = np.zeros(len(Z), dtype=bool)
+    keep[first] = True
+    tz = np.where(keep, tz, np.nan)
+    order = np.argsort(tz)
+    order = order[keep[order]]
+    return tz, order
+
+
+def _track_summary(m: dict[str, np.ndarray], profiles: dict[str, Any]) -> dict[str, Any]:
+    """A sliding thread's largest slip and the track's largest gap (mm); nothing for a tied thread."""
+    if not np.any(m["track"]):
+        return {}
+    slip = np.asarray(profiles[THREAD].get("slip_mm", []), dtype=float)
+    tz, order = _thread_map(m)
+    sel = np.flatnonzero(m["track"])
+    z_now = m["xy"][sel, 1] + m["u"][sel, 1]
+    ur = np.interp(z_now, tz[order], m["thread_u"][order, 0], left=np.nan, right=np.nan)
+    gap = -ur  # the track stays at r_t; the thread's surface sits at r_t + u_r there
+    return {
+        "slip_max_mm": float(np.nanmax(slip)) if np.any(np.isfinite(slip)) else None,
+        "track_gap_max_mm": float(np.nanmax(gap)) if np.any(np.isfinite(gap)) else None,
+    }
+
+
+def _rounded(values: np.ndarray) -> list[float | None]:
+    """A JSON list with 7 significant digits (NaN as null)."""
+    return [None if not np.isfinite(v) else float(f"{v:.7g}") for v in np.asarray(values, dtype=float)]

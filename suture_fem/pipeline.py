@@ -102,7 +102,8 @@ def _check_axial_support(scene: Scene) -> None:
 
 
 #: What a run writes in its output folder; removed before a new run writes there (pictures by the cli).
-OUTPUT_FILES = ("results.json", "fields.xdmf", "fields.h5", ".fields.partial", "usum.png", "force_displacement.png")
+OUTPUT_FILES = ("results.json", "fields.xdmf", "fields.h5", ".fields.partial", "usum.png", "force_displacement.png",
+                "interface.png")
 
 
 @dataclass

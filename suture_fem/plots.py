@@ -8,6 +8,9 @@ The small API (used by ``suture-fem reproduce`` and meant for the demos):
     plot_force_displacement({"4 cones": [[0, 0], [1, 2.6], ...]}, "fd.png", reference={"4 cones": [[1, 4.0]]})
     plot_trends(x, {"USUM (mm)": {"ours": [...], "paper": [...]}, ...}, "trends.png", xlabel="cones")
 
+:func:`suture_fem.interface_plot.plot_interface` draws the contact pressure and shear along each cone
+and the thread (one report's ``interface``).
+
 A grid holds the axisymmetric half-section in millimetres (x = z along the thread, y = r), with the
 point data ``u_mm`` (displacement vector, 3 components with a zero third one) and ``usum_mm``
 (its magnitude), and the cell data ``region`` (the mesh cell tags) and, when the grid is built from

@@ -48,7 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="output folder (default: results/<scene name>)")
     p.add_argument("--fields", action="store_true", help="also write XDMF fields (same as --set output.fields=true)")
     p.add_argument("--no-pictures", action="store_true",
-                   help="do not draw usum.png and force_displacement.png beside results.json")
+                   help="do not draw usum.png, force_displacement.png and interface.png beside results.json")
     p.add_argument("--error-estimate", action="store_true",
                    help="solve once more one refinement coarser and attach 'USUM = x mm +- y' "
                    "(see suture_fem/studies/convergence/estimate.py)")

@@ -15,7 +15,7 @@ from suture_fem.geometry.regions import TISSUE_REGIONS
 
 log = logging.getLogger("suture_fem")
 
-USUM_PNG, CURVE_PNG = "usum.png", "force_displacement.png"
+USUM_PNG, CURVE_PNG, INTERFACE_PNG = "usum.png", "force_displacement.png", "interface.png"
 
 
 class Pictures:
@@ -43,6 +43,11 @@ class Pictures:
                         [self.grid], png, titles=[f"{scene_name}: USUM at F = {self.force_n:g} N"])),
                     (CURVE_PNG, lambda png: plots.plot_force_displacement(
                         {scene_name: results["force_displacement"]}, png))]
+        last = results["at_forces"][-1] if results["at_forces"] else {}
+        if "interface" in last:
+            from suture_fem.interface_plot import plot_interface
+
+            drawings.append((INTERFACE_PNG, lambda png: plot_interface(last, png)))
         written = []
         for name, draw in drawings:
             if name == USUM_PNG and self.grid is None:
@@ -87,6 +92,9 @@ def summary(results: Any, out: Path, written: list[Path]) -> str:
             measures.append(f"tissue {' and '.join(tissue)} = {where.get('seqv_pa', where.get('eptoeqv'))} "
                             f"in the {', '.join(TISSUE_REGIONS)}")
         lines.append("  " + "; ".join(measures))
+    model = results.get("effects", {}).get("interfaces")
+    if model:
+        lines.append(f"  interface: thread {model['thread']}, cones {model['cones']}")
     for rec in results["at_forces"]:
         cells = []
         if "usum_mm" in rec:
@@ -100,6 +108,9 @@ def summary(results: Any, out: Path, written: list[Path]) -> str:
         lines.append(f"  F = {rec['force_n']:g} N: " + "; ".join(cells))
         lines.append(f"      thread end {rec['thread_end_displacement_mm']:.4g} mm, reaction "
                      f"{rec['reaction_force_n']:.6g} N")
+        if "load_share_n" in rec:
+            shares = ", ".join(f"{name.replace('_', ' ')} {v:.3g}" for name, v in rec["load_share_n"].items())
+            lines.append(f"      load passed to the tissue (N): {shares}")
     if "error_estimate" in results:
         lines.append(f"  {results['error_estimate'].get('usum_text', 'no error estimate')}")
     files = [out / "results.json", *written]

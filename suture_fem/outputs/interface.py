@@ -54,7 +54,7 @@ THREAD = "thread"
 
 
 def part_names(cones: int) -> list[str]:
-    """The parts of the interface, in the order of the record: ``cone_1`` (farthest from the pull) ..., then the thread."""
+    """The interface's parts in the record's order: ``cone_1`` (farthest from the pull) ..., then the thread."""
     return [f"cone_{k + 1}" for k in range(cones)] + [THREAD]
 
 

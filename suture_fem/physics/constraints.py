@@ -106,10 +106,10 @@ def supports(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[list[Any], np.ndarra
     return bcs, np.asarray(outer_z, dtype=np.int32)
 
 
-def thread_track(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, int]:
+def thread_track(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, dict[str, int]]:
     """A sliding thread's track: u_r = 0 on the tissue's side of it (facets tagged ``track``).
 
-    Returns the condition and the global number of track nodes it holds. A mesh without the track
+    Returns the condition and its note for the record: ``track_nodes``, the nodes it holds. A mesh without the track
     (built without ``split_thread``) is an error: the thread would stay tied.
     """
     mesh = tagged.mesh
@@ -121,7 +121,7 @@ def thread_track(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, int]:
     dofs = dolfinx.fem.locate_dofs_topological(W_u.sub(0), fdim, track)
     bc = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), dofs, W_u.sub(0))
     _, owned = bc.dof_indices()  # the dofs, owned ones first, and how many are owned
-    return bc, mesh.comm.allreduce(int(owned))
+    return bc, {"track_nodes": mesh.comm.allreduce(int(owned))}
 
 
 def pinned_pressure(tagged: meshmod.TaggedMesh, W: Any) -> tuple[Any, dict[str, int]]:

@@ -98,3 +98,19 @@ class Terms:
 def pull_term(ctx: FormContext, traction: Any, face_tag: int, terms: Terms) -> None:
     """The pull: - int t u_z ds on the thread's end face (t a Constant, F / (pi r_t^2))."""
     terms.potential["pull"] = -traction * kinematics.axial(ctx.u) * ctx.weight * ctx.ds(face_tag)
+
+
+def restricted(form: Any, tags: tuple[int, ...]) -> Any:
+    """The cell integrals of a form over the given cell tags only (every term is written per region).
+
+    Applied to the residual with the tissue's tags it is the tissue's part of the residual: at an
+    interface node, the force the suture applies to the tissue.
+    """
+    wanted = set(int(t) for t in tags)
+    kept = []
+    for integral in form.integrals():
+        ids = integral.subdomain_id()
+        ids = set(int(i) for i in (ids if isinstance(ids, tuple) else (ids,))) if ids != "everywhere" else None
+        if integral.integral_type() == "cell" and ids is not None and ids <= wanted:
+            kept.append(integral)
+    return ufl.Form(kept)

@@ -48,15 +48,9 @@ from petsc4py import PETSc
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.regions import REGION_OF_TAG, REGION_TAGS, REGIONS
+from suture_fem.physics import constraints as cons
 from suture_fem.physics import kinematics
-from suture_fem.physics.constraints import (
-    Unknowns,
-    classify_dofs,
-    pinned_pressure,
-    rigid_suture,
-    supports,
-    thread_track,
-)
+from suture_fem.physics.constraints import Unknowns, classify_dofs, pinned_pressure, rigid_suture, supports
 from suture_fem.physics.effects import (
     Dynamics,
     Effects,
@@ -66,7 +60,7 @@ from suture_fem.physics.effects import (
     rigid_notes,
     strain_energy,
 )
-from suture_fem.physics.forms import FormContext, Terms, measures, pull_term
+from suture_fem.physics.forms import FormContext, Terms, measures, pull_term, restricted
 from suture_fem.physics.materials import Material, with_constants
 from suture_fem.scene.model import MaterialsSection, Scene
 from suture_fem.scene.schema import EffectsSection
@@ -85,8 +79,7 @@ class Physics:
         traction: the axial traction on the pulled face (Pa), set by the load stepping.
         gravity_factor: 0..1 multiplier of the weight (None without gravity).
         terms: residual contributions by effect (UFL forms); residual, jacobian: their sum and its derivative.
-        tissue_residual: the residual's integrals over the tissue's cells (at an interface node, the force
-            the suture applies to the tissue; :mod:`suture_fem.outputs.interface`).
+        tissue_residual: the residual over the tissue's cells (:mod:`suture_fem.outputs.interface`).
         bcs: Dirichlet conditions, in W (zero, except u_z = d on a rigid suture).
         energy: strain energy (J); end_displacement: 2 pi r-weighted integral of u_z over the pulled face.
         outer_z_dofs: the outer surface's u_z dofs (where the reaction force is read); pull_area: pi r_t^2.
@@ -298,22 +291,6 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     )
 
 
-def restricted(form: Any, tags: tuple[int, ...]) -> Any:
-    """The cell integrals of a form over the given cell tags only (every term is written per region).
-
-    Applied to the residual with the tissue's tags it is the tissue's part of the residual: at an
-    interface node, the force the suture applies to the tissue.
-    """
-    wanted = set(int(t) for t in tags)
-    kept = []
-    for integral in form.integrals():
-        ids = integral.subdomain_id()
-        ids = set(int(i) for i in (ids if isinstance(ids, tuple) else (ids,))) if ids != "everywhere" else None
-        if integral.integral_type() == "cell" and ids is not None and ids <= wanted:
-            kept.append(integral)
-    return ufl.Form(kept)
-
-
 def _displacement_of(mixed: bool) -> Callable[[Any], Any]:
     """The displacement part (u_r, u_z) of an expression in the unknown's space."""
     if mixed:
@@ -385,10 +362,9 @@ def _constraints(tagged: meshmod.TaggedMesh, effects: Effects, spaces: _Spaces) 
     if effects.mixed:
         pin, notes["mixed"] = pinned_pressure(tagged, spaces.W)
         bcs.append(pin)
-    if effects.sliding_thread:
-        track, held = thread_track(tagged, spaces.W_u)
+    if effects.sliding_thread:  # u_r = 0 on the tissue's side of the track
+        track, notes["interfaces"] = cons.thread_track(tagged, spaces.W_u)
         bcs.append(track)
-        notes["interfaces"] = {"track_nodes": held}
     rigid = rigid_suture(tagged, spaces.W, spaces.W_u) if effects.rigid else None
     if rigid is not None:
         # the constraint as boundary conditions, so everything that reads bcs sees which dofs are

@@ -61,7 +61,8 @@ def test_default_scene_builds_only_elasticity_and_the_pull(elastic):
     assert physics.dynamics is None and physics.gravity_factor is None
     # no history functions: no mass or damping form exists, so none was compiled or assembled
     assert coefficient_names(physics.residual) == {"displacement"}
-    assert set(physics.compiled()) <= {"residual", "jacobian", "energy", "end_displacement"}
+    # (tissue_residual: the interface output's load shares, a default quantity)
+    assert set(physics.compiled()) <= {"residual", "jacobian", "energy", "end_displacement", "tissue_residual"}
     rec = results["effects"]
     assert rec["inertia"]["on"] is False and "no mass" in rec["inertia"]["left_out"]
     assert rec["hold"] == {"solved": False, "left_out": HOLD_SKIPPED}
@@ -115,7 +116,7 @@ def test_only_usum_requested_compiles_no_stress_or_strain_expression(tmp_path, m
     assert (8,) not in compiled and all(shape in ((), (2,)) for shape in compiled)
     assert "usum_mm" in results and "seqv_pa" not in results and "eptoeqv" not in results
     rec = results["effects"]["outputs"]
-    assert rec["computed"] == ["usum"] and set(rec["left_out"]) == {"seqv", "eptoeqv"}
+    assert rec["computed"] == ["usum"] and set(rec["left_out"]) == {"seqv", "eptoeqv", "interface"}
 
 
 def test_gravity_weighs_the_tissue_down_and_balances(tmp_path, elastic):

@@ -1,0 +1,157 @@
+"""Issue 25, first part: the sliding thread and what the interface passes to the tissue.
+
+A sliding thread (``effects.thread_interface = "sliding"``) is bilateral and frictionless: the tissue's
+side of the bare thread's track has its own nodes, held at r = r_t and free along it. Checked here:
+the mesh split (the tissue and the thread share no node along the bare thread, the cones stay tied),
+the load shares (they sum to the pull; a frictionless thread passes no axial force), the slip and
+the track's gap against the thread's closed-form Poisson contraction, the lift it adds, 2 ranks equal
+to serial, and the diagnosed stop of a sliding thread with nothing to hold it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from tests.conftest import FAST, cli, sets
+
+#: One cone, P1, coarsest mesh, 1 N: the cheapest scene with a cone and a bare thread.
+SCENE = [*FAST, "geometry.cones=1", "output.quantities=[\"usum\",\"interface\"]"]
+SLIDING = [*SCENE, "effects.thread_interface=\"sliding\""]
+
+
+def _run(tmp_path_factory, name: str, overrides: list[str], ranks: int = 1) -> dict:
+    out = tmp_path_factory.mktemp(name)
+    proc = cli(["run", "paper", *sets(overrides), "--no-pictures", "--out", str(out)], ranks=ranks, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads((out / "results.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def tied(tmp_path_factory):
+    return _run(tmp_path_factory, "tied", SCENE)
+
+
+@pytest.fixture(scope="module")
+def sliding(tmp_path_factory):
+    return _run(tmp_path_factory, "sliding", SLIDING)
+
+
+def test_the_split_mesh_shares_no_node_along_the_bare_thread_and_keeps_the_cones_tied():
+    import gmsh
+
+    from suture_fem.geometry.gmsh_model import MeshSizes, build_gmsh_model
+    from suture_fem.geometry.regions import Cell, Facet
+    from suture_fem.geometry.section import Geometry
+    from suture_fem.pipeline import load_scene
+
+    scene = load_scene("paper", [*FAST, "geometry.cones=2"])
+    g = Geometry.from_section(scene.geometry)
+    shared: dict[bool, tuple[set, set, int]] = {}
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        for split in (False, True):
+            build_gmsh_model(g, MeshSizes.from_section(scene.mesh), split_thread=split)
+
+            def nodes_of(tags):
+                out = set()
+                for tag in tags:
+                    for e in gmsh.model.getEntitiesForPhysicalGroup(2, tag):
+                        out |= set(np.concatenate(gmsh.model.mesh.getElements(2, e)[2]).tolist())
+                return out
+
+            tissue = nodes_of([Cell.HYPODERMIS, Cell.DERMIS, Cell.EPIDERMIS])
+            thread, cone = nodes_of([Cell.THREAD]), nodes_of([Cell.CONE])
+            groups = [t for _, t in gmsh.model.getPhysicalGroups(1)]
+            shared[split] = (tissue & thread, tissue & cone, int(Facet.TRACK) in groups)
+            gmsh.model.remove()
+    finally:
+        gmsh.finalize()
+    tied_thread, tied_cone, tied_track = shared[False]
+    split_thread, split_cone, split_track = shared[True]
+    assert len(tied_thread) > 100 and not tied_track
+    assert split_track
+    assert split_cone == tied_cone  # the cones stay tied to the tissue
+    # the only thread nodes the tissue still shares are where a cone meets the thread (tied to both)
+    assert split_thread <= tied_cone and len(split_thread) == 2 * 2  # two junctions per hollow cone
+
+
+def test_an_interface_model_that_is_not_built_is_refused_in_one_line():
+    proc = cli(["show", "paper", "--set", 'effects.thread_interface="coulomb"'])
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "effects.thread_interface" in lines[0] and '"sliding"' in lines[0], proc.stderr
+
+
+def test_the_load_shares_sum_to_the_pull_and_the_tied_thread_carries_some(tied):
+    rec = tied["at_forces"][-1]
+    shares = rec["load_share_n"]
+    assert list(shares) == ["cone_1", "thread"]
+    assert sum(shares.values()) == pytest.approx(rec["force_n"], rel=1e-9)
+    assert sum(shares.values()) == pytest.approx(-rec["reaction_force_n"], rel=1e-9)
+    assert 0.05 < shares["thread"] < 0.95 and shares["cone_1"] > 0.05
+    assert tied["effects"]["interfaces"]["thread"] == "tied"
+    assert "slip_max_mm" not in rec["interface"]
+    for name, prof in rec["interface"]["profiles"].items():
+        assert prof["s_mm"] == sorted(prof["s_mm"]) and len(prof["s_mm"]) == len(prof["pressure_pa"]) > 5, name
+        assert prof["axial_force_n"] == pytest.approx(shares[name], rel=1e-9)
+
+
+def test_a_frictionless_sliding_thread_passes_no_axial_force_and_lifts_more(tied, sliding):
+    rec, ref = sliding["at_forces"][-1], tied["at_forces"][-1]
+    shares = rec["load_share_n"]
+    assert abs(shares["thread"]) < 1e-9 * rec["force_n"]
+    assert sum(shares.values()) == pytest.approx(rec["force_n"], rel=1e-9)
+    assert shares["cone_1"] == pytest.approx(rec["force_n"], rel=1e-9)
+    assert sliding["effects"]["interfaces"]["thread"] == "sliding"
+    assert sliding["effects"]["interfaces"]["track_nodes"] > 50
+    # the pull now goes through the cone alone: the thread end moves further (MODEL.md: about +9 % at 1 cone)
+    assert 1.03 < rec["thread_end_displacement_mm"] / ref["thread_end_displacement_mm"] < 1.2
+
+
+def test_the_slip_grows_toward_the_pull_and_the_track_gap_is_the_thread_poisson_contraction(sliding):
+    rec = sliding["at_forces"][-1]
+    thread = rec["interface"]["profiles"]["thread"]
+    z = np.array(thread["z_mm"])
+    slip = np.array([np.nan if v is None else v for v in thread["slip_mm"]])
+    length = sliding["geometry"]["tissue_length_mm"]
+    at_exit = slip[np.argmax(z)]
+    assert at_exit == pytest.approx(rec["interface"]["slip_max_mm"], rel=1e-6)
+    assert at_exit > 0.5 * rec["thread_end_displacement_mm"]
+    assert np.isnan(slip[np.argmin(z)])  # the thread's far end has left the tissue's far face
+    assert z.max() == pytest.approx(length)
+    # closed form: the free thread (axial force F) contracts radially by nu F / (pi r_t E) (small strain);
+    # the thread's strain at 1 N is 1.4 %, so the St Venant-Kirchhoff thread differs from it at that order
+    scene = sliding["scene"]
+    r_t = scene["geometry"]["thread_radius_mm"] * 1e-3
+    svk = scene["materials"]["suture"]
+    closed_mm = svk["poisson"] * rec["force_n"] / (math.pi * r_t * svk["young"]) * 1e3
+    strain = rec["force_n"] / (math.pi * r_t**2 * svk["young"])
+    assert rec["interface"]["track_gap_max_mm"] == pytest.approx(closed_mm, rel=strain)
+
+
+def test_two_ranks_give_the_serial_interface(tmp_path_factory, sliding):
+    par = _run(tmp_path_factory, "sliding2", SLIDING, ranks=2)
+    a, b = sliding["at_forces"][-1], par["at_forces"][-1]
+    assert par["mpi_ranks"] == 2
+    assert b["usum_mm"] == pytest.approx(a["usum_mm"], rel=1e-9)
+    for name in a["load_share_n"]:
+        assert b["load_share_n"][name] == pytest.approx(a["load_share_n"][name], rel=1e-9, abs=1e-12)
+        pa, pb = a["interface"]["profiles"][name], b["interface"]["profiles"][name]
+        assert pb["s_mm"] == pytest.approx(pa["s_mm"], abs=1e-12)
+        scale = max(map(abs, pa["pressure_pa"]))
+        assert pb["pressure_pa"] == pytest.approx(pa["pressure_pa"], rel=1e-6, abs=1e-6 * scale)
+    assert b["interface"]["slip_max_mm"] == pytest.approx(a["interface"]["slip_max_mm"], rel=1e-6)
+
+
+def test_a_sliding_thread_with_no_cone_stops_with_a_diagnosis(tmp_path):
+    proc = cli(["run", "paper", *sets([*SLIDING, "geometry.cones=0"]), "--no-pictures", "--out", str(tmp_path)])
+    assert proc.returncode == 3, proc.stderr
+    assert "no_axial_support" in proc.stderr
+    res = json.loads((tmp_path / "results.json").read_text())
+    assert res["status"] == "stopped" and res["diagnosis"]["cause"] == "no_axial_support"
+    assert res["force_displacement"] == [[0.0, 0.0]]

@@ -121,7 +121,9 @@ def test_the_slip_grows_toward_the_pull_and_the_track_gap_is_the_thread_poisson_
     length = sliding["geometry"]["tissue_length_mm"]
     at_exit = slip[np.argmax(z)]
     assert at_exit == pytest.approx(rec["interface"]["slip_max_mm"], rel=1e-6)
-    assert at_exit > 0.5 * rec["thread_end_displacement_mm"]
+    # the thread pulls the tissue along through the cone but never overtakes it: it slides toward the pull
+    # everywhere along its track, least at the cone, most where it leaves the tissue
+    assert np.nanmin(slip) > 0 and at_exit < rec["thread_end_displacement_mm"]
     assert np.isnan(slip[np.argmin(z)])  # the thread's far end has left the tissue's far face
     assert z.max() == pytest.approx(length)
     # closed form: the free thread (axial force F) contracts radially by nu F / (pi r_t E) (small strain);

@@ -1,0 +1,76 @@
+"""Benchmark: each thread interface model side by side with tied on the same scene (issue 25).
+
+Runs ``suture-fem run paper`` (P2, 0-4 N, reports at 1-4 N) for the given cone counts with
+``effects.thread_interface`` tied and sliding, one child process each, in one invocation. Prints a
+table and writes JSON: USUM and the thread end's displacement at each reported force, the load share
+of the thread and of each cone at the peak, Newton iterations, load steps, cutbacks, CPU seconds and
+peak memory.
+
+    .venv/bin/python benchmarks/interfaces.py [--cones 1,4] [--set KEY=VALUE ...]
+        [--out benchmarks/out/interfaces]
+
+Counts do not depend on the machine's load; CPU seconds do (compare them side by side, as here).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from speed import ROOT, run  # noqa: E402
+
+MODELS = ("tied", "sliding")
+
+
+def case(cones: int, model: str, extra: list[str], out: Path) -> dict:
+    """One ramp: its results and costs."""
+    args = ["run", "paper", "--set", f"geometry.cones={cones}", "--set", f'effects.thread_interface="{model}"',
+            "--set", 'output.quantities=["usum","interface"]', "--no-pictures"]
+    for kv in extra:
+        args += ["--set", kv]
+    row = run(ROOT, args, out)
+    res = json.loads((out / "results.json").read_text()) if (out / "results.json").is_file() else {}
+    reports = res.get("at_forces", [])
+    return {"cones": cones, "model": model, "exit": row["exit"], "cpu_s": row["cpu_s"], "peak_mb": row["peak_mb"],
+            "newton_iterations": res.get("newton_iterations"), "load_steps": res.get("load_steps"),
+            "cutbacks": res.get("cutbacks"),
+            "usum_mm": {r["force_n"]: r.get("usum_mm") for r in reports},
+            "thread_end_mm": {r["force_n"]: r.get("thread_end_displacement_mm") for r in reports},
+            "load_share_n": reports[-1].get("load_share_n") if reports else None,
+            "slip_max_mm": reports[-1].get("interface", {}).get("slip_max_mm") if reports else None}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the cases, print the table, write the JSON."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cones", default="1,4")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "interfaces"))
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    rows = []
+    for cones in [int(c) for c in args.cones.split(",")]:
+        for model in MODELS:
+            rows.append(case(cones, model, args.set, out / f"cones_{cones}_{model}"))
+    print("| cones | thread | exit | USUM at 1 / 2 / 3 / 4 N (mm) | thread share at peak (N) | cone shares (N) "
+          "| slip max (mm) | Newton its | steps | cutbacks | CPU s | peak MB |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for r in rows:
+        usum = " / ".join(f"{v:.3f}" for v in r["usum_mm"].values() if v is not None)
+        shares = r["load_share_n"] or {}
+        cones_txt = ", ".join(f"{v:.3f}" for k, v in shares.items() if k != "thread")
+        slip = f"{r['slip_max_mm']:.3f}" if r["slip_max_mm"] is not None else "-"
+        print(f"| {r['cones']} | {r['model']} | {r['exit']} | {usum} | {shares.get('thread', float('nan')):.3g} | "
+              f"{cones_txt} | {slip} | {r['newton_iterations']} | {r['load_steps']} | {r['cutbacks']} | "
+              f"{r['cpu_s']:.1f} | {r['peak_mb']:.0f} |")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "interfaces.json").write_text(json.dumps(rows, indent=2))
+    print(f"wrote {out / 'interfaces.json'}")
+    return 0 if all(r["exit"] == 0 for r in rows) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

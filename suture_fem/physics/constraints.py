@@ -117,7 +117,7 @@ def thread_track(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, dict[str, i
     track = meshmod.facets(tagged, regions.Facet.TRACK)
     if mesh.comm.allreduce(len(track)) == 0:
         raise ValueError('effects.thread_interface = "sliding" needs the mesh built with the thread\'s track split '
-                         "(geometry.mesh.scene_mesh, or create_mesh(..., split_thread=True))")
+                         "(suture_fem.geometry.mesh.scene_mesh, or create_mesh(..., split_thread=True))")
     dofs = dolfinx.fem.locate_dofs_topological(W_u.sub(0), fdim, track)
     bc = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), dofs, W_u.sub(0))
     _, owned = bc.dof_indices()  # the dofs, owned ones first, and how many are owned

@@ -22,7 +22,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from speed import ROOT, run  # noqa: E402
 
-MODELS = ("tied", "sliding")
+MODELS = ("tied", "sliding", "frictionless")
 
 
 def case(cones: int, model: str, extra: list[str], out: Path) -> dict:
@@ -69,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     (out / "interfaces.json").write_text(json.dumps(rows, indent=2))
     print(f"wrote {out / 'interfaces.json'}")
-    return 0 if all(r["exit"] == 0 for r in rows) else 1
+    return 0 if all(r["exit"] in (0, 3) for r in rows) else 1  # 3: a diagnosed stop, reported in the table
 
 
 if __name__ == "__main__":

@@ -92,13 +92,13 @@ def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: On
 
 
 def _check_axial_support(scene: Scene) -> None:
-    """Stop with a diagnosis when nothing can hold the pull: a sliding thread with no cone."""
-    if scene.effects.thread_interface == "sliding" and scene.geometry.cones == 0:
+    """Stop with a diagnosis when nothing can hold the pull: a frictionless (sliding or unilateral) thread, no cone."""
+    if scene.effects.thread_interface in ("sliding", "frictionless") and scene.geometry.cones == 0:
         first = scene.loading.force_n * scene.solver.initial_step
         raise SolveStopped(StopCause.NO_AXIAL_SUPPORT, 0.0, first,
-                           'effects.thread_interface = "sliding" with geometry.cones = 0: a frictionless thread in its '
-                           "track passes no axial force to the tissue, so no state balances a pull (the tissue holds "
-                           "the thread only through the cones)")
+                           f'effects.thread_interface = "{scene.effects.thread_interface}" with geometry.cones = 0: a '
+                           "frictionless thread passes no axial force to the tissue, so no state balances a pull (the "
+                           "tissue holds the thread only through the cones)")
 
 
 #: What a run writes in its output folder; removed before a new run writes there (pictures by the cli).

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from suture_fem.geometry.gmsh_model import MeshSizes, build_gmsh_model
-from suture_fem.geometry.regions import CELL_TAGS, FACET_TAGS, MM
+from suture_fem.geometry.regions import CELL_TAGS, FACET_TAGS, MM, REGION_OF_TAG, REGIONS
 from suture_fem.geometry.section import Geometry
 from suture_fem.scene.schema import GeometrySection, MeshSection
 from suture_fem.support import compat
@@ -64,9 +64,21 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
     return TaggedMesh(mesh, cell_tags, facet_tags, geometry, sizes)
 
 
+def present_regions(tagged: TaggedMesh) -> dict[str, tuple[int, ...]]:
+    """Region -> its cell tags present anywhere on the communicator (a region may be absent, e.g. no cones)."""
+    local = set(int(t) for t in np.unique(tagged.cell_tags.values))
+    present = set().union(*tagged.mesh.comm.allgather(local))
+    found = {}
+    for region in REGIONS:
+        tags = tuple(t for t, r in REGION_OF_TAG.items() if r == region and t in present)
+        if tags:
+            found[region] = tags
+    return found
+
+
 def splits_thread(scene: Any) -> bool:
     """Whether a scene's mesh gives the tissue its own nodes along the thread (a sliding thread)."""
-    return scene.effects.thread_interface == "sliding"
+    return scene.effects.thread_interface in ("sliding", "frictionless")
 
 
 def scene_mesh(comm: Any, scene: Any) -> TaggedMesh:

@@ -91,7 +91,7 @@ class Interface(Quantity):
             in_cone = cone[self.nodes] & (self.xy_mm[:, 1] >= lo - tol) & (self.xy_mm[:, 1] <= hi + tol)
             self.part[in_cone] = k
         self.track = np.zeros(len(self.nodes), dtype=bool)
-        if physics.effects.sliding_thread:
+        if physics.effects.thread_track:
             on_track = np.zeros(_nodes(V), dtype=bool)
             on_track[dolfinx.fem.locate_dofs_topological(V, fdim, meshmod.facets(physics.tagged, Facet.TRACK))] = True
             self.track = on_track[self.nodes]
@@ -281,6 +281,7 @@ def _profiles(m: dict[str, np.ndarray], g: Any, names: list[str]) -> dict[str, d
             prof["peak_pressure_at_mm"] = [float(v) for v in m["xy"][sel[peak]]]
         if name == THREAD and np.any(m["track"][sel]):
             prof["slip_mm"] = _rounded(_slip(m, sel))
+            prof["gap_mm"] = _rounded(np.where(m["track"][sel], m["u"][sel, 0], 0.0))
         out[name] = prof
     return out
 
@@ -313,8 +314,13 @@ def _thread_map(m: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return tz, order
 
 
+#: A track node counts as separated from the thread when its radial displacement exceeds this (mm): 0.1 um,
+#: far below an element (50-150 um) and above a closed node's penalty penetration's sign noise.
+SEPARATION_MM = 1e-4
+
+
 def _track_summary(m: dict[str, np.ndarray], profiles: dict[str, Any]) -> dict[str, Any]:
-    """A sliding thread's largest slip and the track's largest gap (mm); nothing for a tied thread."""
+    """A thread track's largest slip, the thread's contraction there, and where the tissue has left it (mm)."""
     if not np.any(m["track"]):
         return {}
     slip = np.asarray(profiles[THREAD].get("slip_mm", []), dtype=float)
@@ -322,11 +328,29 @@ def _track_summary(m: dict[str, np.ndarray], profiles: dict[str, Any]) -> dict[s
     sel = np.flatnonzero(m["track"])
     z_now = m["xy"][sel, 1] + m["u"][sel, 1]
     ur = np.interp(z_now, tz[order], m["thread_u"][order, 0], left=np.nan, right=np.nan)
-    gap = -ur  # the track stays at r_t; the thread's surface sits at r_t + u_r there
+    contraction = -ur  # the track is r = r_t; the thread's surface sits at r_t + u_r there
+    gap = m["u"][sel, 0]  # the tissue's radial displacement off the track: + open, - penetration
+    order = np.argsort(m["xy"][sel, 1])
     return {
         "slip_max_mm": float(np.nanmax(slip)) if np.any(np.isfinite(slip)) else None,
-        "track_gap_max_mm": float(np.nanmax(gap)) if np.any(np.isfinite(gap)) else None,
+        "thread_contraction_max_mm": float(np.nanmax(contraction)) if np.any(np.isfinite(contraction)) else None,
+        "opening_max_mm": float(max(np.max(gap), 0.0)),
+        "penetration_max_mm": float(max(-np.min(gap), 0.0)),
+        "separated_mm": _intervals(m["xy"][sel, 1][order], gap[order] > SEPARATION_MM),
     }
+
+
+def _intervals(z: np.ndarray, open_: np.ndarray) -> list[list[float]]:
+    """The reference z-ranges (mm) of consecutive open track nodes, [first, last] of each run."""
+    out: list[list[float]] = []
+    start = None
+    for k in range(len(z)):
+        if open_[k] and start is None:
+            start = k
+        if start is not None and (k == len(z) - 1 or not open_[k + 1]):
+            out.append([float(z[start]), float(z[k])])
+            start = None
+    return out
 
 
 def _rounded(values: np.ndarray) -> list[float | None]:

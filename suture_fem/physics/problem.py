@@ -47,7 +47,7 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
-from suture_fem.geometry.regions import REGION_OF_TAG, REGION_TAGS, REGIONS
+from suture_fem.geometry.regions import REGION_TAGS, REGIONS
 from suture_fem.physics import constraints as cons
 from suture_fem.physics import kinematics
 from suture_fem.physics.constraints import Unknowns, classify_dofs, pinned_pressure, rigid_suture, supports
@@ -60,6 +60,7 @@ from suture_fem.physics.effects import (
     rigid_notes,
     strain_energy,
 )
+from suture_fem.physics.effects.contact import contact_term, penalty_stiffness
 from suture_fem.physics.forms import FormContext, Terms, measures, pull_term, restricted
 from suture_fem.physics.materials import Material, with_constants
 from suture_fem.scene.model import MaterialsSection, Scene
@@ -80,6 +81,7 @@ class Physics:
         gravity_factor: 0..1 multiplier of the weight (None without gravity).
         terms: residual contributions by effect (UFL forms); residual, jacobian: their sum and its derivative.
         tissue_residual: the residual over the tissue's cells (:mod:`suture_fem.outputs.interface`).
+        contact_energy: the contact penalty's energy (UFL; None without it), for the line search's objective.
         bcs: Dirichlet conditions, in W (zero, except u_z = d on a rigid suture).
         energy: strain energy (J); end_displacement: 2 pi r-weighted integral of u_z over the pulled face.
         outer_z_dofs: the outer surface's u_z dofs (where the reaction force is read); pull_area: pi r_t^2.
@@ -106,6 +108,7 @@ class Physics:
     residual: Any
     jacobian: Any
     tissue_residual: Any
+    contact_energy: Any
     bcs: list[Any]
     energy: Any
     end_displacement: Any
@@ -253,7 +256,9 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     spaces = _Spaces.of(tagged.mesh, degree, effects.mixed)
     dynamics = Dynamics(spaces.W, scene.effects) if effects.inertia else None
     ctx, parameters = _context(tagged, scene, spaces, degree, effects.mixed, dynamics)
-    terms, traction, gravity_factor = _terms(ctx, effects, scene.effects, dynamics, parameters["loading.force_scale"])
+    kappa = penalty_stiffness(scene, tagged.sizes.suture) if effects.unilateral_thread else None
+    terms, traction, gravity_factor = _terms(ctx, effects, scene.effects, dynamics, parameters["loading.force_scale"],
+                                             kappa)
     residual, jacobian = terms.residual_and_jacobian(ctx)
     constraints = _constraints(tagged, effects, spaces)
     u = spaces.u
@@ -276,6 +281,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         tissue_residual=restricted(residual, regions.TISSUE),
         bcs=constraints.bcs,
         energy=strain_energy(ctx, F, effects.rigid),
+        contact_energy=terms.potential.get("contact:thread"),
         end_displacement=kinematics.axial(u) * ctx.weight * ctx.ds(regions.Facet.PULL_FACE),
         outer_z_dofs=constraints.outer_z_dofs,
         pull_area=math.pi * r_t**2,
@@ -286,7 +292,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         dynamics=dynamics,
         u_in_state=spaces.u_in_state,
         rigid_displacement=constraints.rigid_displacement,
-        notes=_notes(tagged, effects, scene.effects, dynamics, constraints.notes),
+        notes=_notes(tagged, effects, scene.effects, dynamics, constraints.notes, kappa),
         parameters=parameters,
     )
 
@@ -330,13 +336,13 @@ def _context(tagged: meshmod.TaggedMesh, scene: Scene, spaces: _Spaces, degree: 
         v=displacement(test), q=test[2] if mixed else None, test=test,
         x=x, weight=kinematics.volume_weight(x), dx=dx, ds=ds,
         materials=materials,
-        region_tags=_region_tags(tagged),
+        region_tags=meshmod.present_regions(tagged),
         scale=dynamics.scale if dynamics is not None else 1.0,
     ), parameters
 
 
 def _terms(ctx: FormContext, effects: Effects, section: EffectsSection,
-           dynamics: Dynamics | None, force_scale: Any) -> tuple[Terms, Any, Any]:
+           dynamics: Dynamics | None, force_scale: Any, kappa: float | None) -> tuple[Terms, Any, Any]:
     """The terms of every called effect, and the load parameters: (terms, traction, gravity factor or None).
 
     The pull's traction is ``traction * force_scale``: the load stepping sets the nominal traction.
@@ -344,6 +350,8 @@ def _terms(ctx: FormContext, effects: Effects, section: EffectsSection,
     mesh = ctx.w.function_space.mesh
     terms = Terms()
     elastic_terms(ctx, effects, terms)
+    if kappa is not None:  # a frictionless thread the tissue may leave: the penalty on its track
+        contact_term(ctx, kappa, terms)
     traction = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
     pull_term(ctx, traction * force_scale, regions.Facet.PULL_FACE, terms)
     gravity_factor = None
@@ -362,9 +370,9 @@ def _constraints(tagged: meshmod.TaggedMesh, effects: Effects, spaces: _Spaces) 
     if effects.mixed:
         pin, notes["mixed"] = pinned_pressure(tagged, spaces.W)
         bcs.append(pin)
-    if effects.sliding_thread:  # u_r = 0 on the tissue's side of the track
+    if effects.thread_track:  # sliding: u_r = 0 on the tissue's side of the track
         track, notes["interfaces"] = cons.thread_track(tagged, spaces.W_u)
-        bcs.append(track)
+        bcs += [track] if effects.sliding_thread else []
     rigid = rigid_suture(tagged, spaces.W, spaces.W_u) if effects.rigid else None
     if rigid is not None:
         # the constraint as boundary conditions, so everything that reads bcs sees which dofs are
@@ -378,23 +386,13 @@ def _constraints(tagged: meshmod.TaggedMesh, effects: Effects, spaces: _Spaces) 
 
 
 def _notes(tagged: meshmod.TaggedMesh, effects: Effects, section: EffectsSection, dynamics: Dynamics | None,
-           constraint_notes: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+           constraint_notes: dict[str, dict[str, Any]], kappa: float | None) -> dict[str, dict[str, Any]]:
     """The numbers of each called effect for the ``effects`` record (see :meth:`Effects.record`)."""
     notes = dict(constraint_notes)
+    if kappa is not None:
+        notes["interfaces"]["contact_penalty_pa_per_m"] = kappa
     if dynamics is not None:
         notes["inertia"] = dynamics.notes()
     if effects.gravity:
         notes["gravity"] = gravity_notes(tagged, section)
     return notes
-
-
-def _region_tags(tagged: meshmod.TaggedMesh) -> dict[str, tuple[int, ...]]:
-    """Region -> its cell tags present anywhere on the communicator (a region may be absent, e.g. no cones)."""
-    local = set(int(t) for t in np.unique(tagged.cell_tags.values))
-    present = set().union(*tagged.mesh.comm.allgather(local))
-    found = {}
-    for region in REGIONS:
-        tags = tuple(t for t, r in REGION_OF_TAG.items() if r == region and t in present)
-        if tags:
-            found[region] = tags
-    return found

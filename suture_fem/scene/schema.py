@@ -238,7 +238,8 @@ class EffectsSection:
     time_step_s: float = key(_pos(1e6), S)
     gravity_m_s2: float = key(_pos(1e3, lo_open=False), "m/s^2")
     gravity_direction: str = key(Rule("str", choices=("-z", "+z")))
-    thread_interface: str = key(Rule("str", choices=("tied", "sliding")))
+    thread_interface: str = key(Rule("str", choices=("tied", "sliding", "frictionless")))
+    contact_penalty: float = key(_pos(1e8))
 
     def density(self, region: str) -> float:
         """Mass density (kg/m^3) of a material region."""

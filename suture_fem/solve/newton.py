@@ -368,7 +368,9 @@ def _potential_form(problem: Discrete) -> Any:
     if effects is None or effects.mixed or effects.inertia or effects.gravity or getattr(problem, "degree", 0) != 1:
         return None
     traction = getattr(problem, "applied_traction", problem.traction)  # with loading.force_scale
-    return compat.form(problem.energy - traction * problem.end_displacement)
+    contact = getattr(problem, "contact_energy", None)  # a frictionless thread's penalty
+    energy = problem.energy if contact is None else problem.energy + contact
+    return compat.form(energy - traction * problem.end_displacement)
 
 
 def _reason_name(reason: int) -> str:

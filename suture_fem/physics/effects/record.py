@@ -57,6 +57,16 @@ class Effects:
         return self.thread_interface == "sliding"
 
     @property
+    def thread_track(self) -> bool:
+        """The tissue has its own nodes along the bare thread (a sliding or a frictionless thread)."""
+        return self.thread_interface in ("sliding", "frictionless")
+
+    @property
+    def unilateral_thread(self) -> bool:
+        """The tissue may leave the thread (``effects.thread_interface = "frictionless"``)."""
+        return self.thread_interface == "frictionless"
+
+    @property
     def mixed(self) -> bool:
         """The tissue has a pressure field (``effects.incompressibility = "mixed"``)."""
         return self.incompressibility == "mixed"
@@ -105,6 +115,10 @@ class Effects:
         if self.sliding_thread:
             rec["thread_model"] = ("bilateral frictionless sliding: the tissue's side of the thread's track has its "
                                    "own nodes, held at r = thread radius (u_r = 0) and free along it")
+        elif self.unilateral_thread:
+            rec["thread_model"] = ("unilateral frictionless contact: the tissue's side of the thread's track has its "
+                                   "own nodes, free along it and free to leave the thread (u_r > 0) but not to "
+                                   "enter it (u_r >= 0 by a penalty)")
         else:
             rec["thread_model"] = "tied: the thread and the tissue share their interface nodes (the paper's model)"
         rec["cone_model"] = "tied: the cones and the tissue share their interface nodes"

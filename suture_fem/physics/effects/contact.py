@@ -1,0 +1,52 @@
+"""Contact of the tissue with a frictionless thread that it may leave (``effects.thread_interface = "frictionless"``).
+
+The tissue's side of the thread's track (its own nodes, facets tagged ``track``: the mesh is split as
+for a sliding thread) may move away from the thread but not into it. The thread's surface is taken as
+the track r = r_t itself (its radial Poisson contraction, at most nu F / (pi r_t E), is neglected as
+for the sliding thread), so the gap at a track point is its radial displacement u_r and the
+non-penetration condition is u_r >= 0, wherever along the thread the point has slid: no search.
+
+The condition is imposed by a penalty (Wriggers, Computational Contact Mechanics, 2006, ch. 6),
+
+    Pi_c = 1/2 kappa int <-u_r>^2 2 pi r ds_track,   <x> = max(x, 0),
+
+whose variation gives the contact pressure p = kappa <-u_r> (zero where the tissue has opened). The
+stiffness is kappa = ``effects.contact_penalty`` x K0 / h, with K0 = 2 (1/d1) the hypodermis's initial
+bulk modulus (times ``materials.tissue_scale``) and h the element size on the suture's surface: the
+scaling CONTACT.md recommends (about E / h). The residual penetration is p / kappa, reported by the
+interface output as ``track_penetration_max_mm``. The penalty's energy joins the potential, so the
+line search's energy objective and the Jacobian (its exact derivative, piecewise: semismooth Newton)
+see it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import dolfinx.fem
+import ufl
+from petsc4py import PETSc
+
+from suture_fem.geometry.regions import MM, Facet
+from suture_fem.physics.forms import FormContext, Terms
+from suture_fem.scene.model import Scene
+
+
+def penalty_stiffness(scene: Scene, suture_size_mm: float) -> float:
+    """Kappa (Pa/m): ``effects.contact_penalty`` x the hypodermis's initial bulk modulus / the suture's element size."""
+    hyp = scene.materials.of("hypodermis").params
+    inv_d = hyp.get("inv_d1", hyp.get("inv_d", 0.0))
+    bulk = 2.0 * float(inv_d) * scene.materials.tissue_scale
+    if bulk <= 0.0:  # an incompressible hypodermis (1/d = 0, mixed): its initial shear modulus instead
+        bulk = 2.0 * float(hyp.get("c10", hyp.get("mu", 1.0))) * scene.materials.tissue_scale
+    return scene.effects.contact_penalty * bulk / (suture_size_mm * MM)
+
+
+def contact_term(ctx: FormContext, kappa: float, terms: Terms) -> Any:
+    """The penalty's potential on the track (added to ``terms``); returns kappa's Constant."""
+    mesh = ctx.w.function_space.mesh
+    stiffness = dolfinx.fem.Constant(mesh, PETSc.ScalarType(kappa))
+    ur = ctx.u[0]
+    closed = ufl.conditional(ufl.lt(ur, 0.0), ur, 0.0)
+    terms.potential["contact:thread"] = 0.5 * stiffness * closed**2 * ctx.weight * ctx.ds(int(Facet.TRACK))
+    return stiffness

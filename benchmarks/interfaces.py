@@ -1,7 +1,7 @@
 """Benchmark: each thread interface model side by side with tied on the same scene (issue 25).
 
 Runs ``suture-fem run paper`` (P2, 0-4 N, reports at 1-4 N) for the given cone counts with
-``effects.thread_interface`` tied and sliding, one child process each, in one invocation. Prints a
+``effects.thread_interface`` tied, sliding and frictionless, one child process each, in one invocation. Prints a
 table and writes JSON: USUM and the thread end's displacement at each reported force, the load share
 of the thread and of each cone at the peak, Newton iterations, load steps, cutbacks, CPU seconds and
 peak memory.

@@ -20,7 +20,7 @@
 # 3. Clones this repository's HEAD into the root (/work/suture_fem; uncommitted changes are NOT
 #    included: commit first) with ../shared beside it, and runs the README's two commands inside a
 #    chroot: the main job at a small force (bash scripts/run-paper.sh --set loading.force_n=0.5),
-#    then bash scripts/test.sh with the given pytest arguments (default: tests/unit,
+#    then bash scripts/test.sh with the given pytest arguments (default: tests/unit, tests/contact,
 #    tests/integration and one quick MPI test). Both always run; the exit code is non-zero if either
 #    failed.
 #
@@ -280,11 +280,11 @@ if [ "$gen" = 1 ]; then
   exit 0
 fi
 
-if [ "$#" -eq 0 ]; then  # the fast subset: unit, integration and one quick MPI test
+if [ "$#" -eq 0 ]; then  # the fast subset: unit, integration, contact and one quick MPI test
   mpi_test="$(cd "$root/work/suture_fem" &&
     grep -rl --include='test_*.py' 'def test_a_bad_scene_stops_every_rank_with_one_line' tests | head -n 1)"
   subset=()
-  for d in tests/unit tests/integration; do
+  for d in tests/unit tests/integration tests/contact; do
     if [ -d "$root/work/suture_fem/$d" ]; then subset+=("$d"); fi
   done
   set -- -rfE "${subset[@]}" ${mpi_test:+"$mpi_test::test_a_bad_scene_stops_every_rank_with_one_line"}

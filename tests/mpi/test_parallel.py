@@ -73,9 +73,10 @@ def test_two_ranks_log_once_and_write_each_file_once(parallel_run):
     steps = [line for line in proc.stderr.splitlines() if "step   1 " in line]
     assert len(steps) == 1, proc.stderr
     assert proc.stdout.count("results in") == 1
-    # the fields, the results and the two pictures a run draws by default (issue 15), each once, from rank 0
+    # the fields, the results and the three pictures a run draws by default (issues 15 and 25), each once,
+    # from rank 0
     assert sorted(p.name for p in out.iterdir()) == ["fields.h5", "fields.xdmf", "force_displacement.png",
-                                                     "results.json", "usum.png"]
+                                                     "interface.png", "results.json", "usum.png"]
 
 
 def test_a_failure_on_rank_0_ends_every_rank(tmp_path):

@@ -320,16 +320,19 @@ def test_write_text_leaves_the_old_file_or_the_new_one(tmp_path, monkeypatch):
 def test_a_run_draws_pictures_prints_the_tissue_table_and_removes_stale_files(tmp_path, capsys):
     out = tmp_path / "run"
     out.mkdir()
-    for stale in ("fields.xdmf", "fields.h5", "usum.png"):
+    for stale in ("fields.xdmf", "fields.h5", "usum.png", "interface.png"):
         (out / stale).write_text("from an earlier run")
     from suture_fem.cli.main import main
 
     assert main(["run", "paper", *FAST_RUN, "--out", str(out)]) == 0
     printed = capsys.readouterr().out
-    assert sorted(p.name for p in out.iterdir()) == ["force_displacement.png", "results.json", "usum.png"]
-    assert (out / "usum.png").read_bytes()[:4] == b"\x89PNG" and (out / "usum.png").stat().st_size > 10_000
+    assert sorted(p.name for p in out.iterdir()) == ["force_displacement.png", "interface.png", "results.json",
+                                                     "usum.png"]
+    for png in ("usum.png", "interface.png"):
+        assert (out / png).read_bytes()[:4] == b"\x89PNG" and (out / png).stat().st_size > 10_000
     assert "tissue SEQV" in printed and "maximum over quadrature points" in printed and "MPa at r =" in printed
     assert str(out / "usum.png") in printed and str(out / "force_displacement.png") in printed
+    assert "interface: thread tied, cones tied" in printed and "load passed to the tissue (N): cone 1" in printed
     results = json.loads((out / "results.json").read_text())
     assert results["status"] == "converged" and results["process"]["pid"] == os.getpid()
 

@@ -43,6 +43,11 @@ def plot_interface(record: Mapping[str, Any], png: str | Path, title: str = "") 
     label = f"thread: {shares.get('thread', float('nan')):.3g} N"
     ax_tp.plot(z, np.asarray(thread.get("pressure_pa", []), dtype=float) / 1e3, ".", ms=2.5, color="C3", label=label)
     ax_ts.plot(z, np.asarray(thread.get("shear_pa", []), dtype=float) / 1e3, ".", ms=2.5, color="C3", label=label)
+    for lo, hi in interface.get("separated_mm", []):  # the gap map: where the tissue has left the thread
+        for ax in (ax_tp, ax_ts):
+            ax.axvspan(lo, hi, color="0.85", lw=0, zorder=0)
+    if interface.get("separated_mm"):
+        ax_tp.plot([], [], "s", color="0.85", label="tissue off the thread")
     if "slip_mm" in thread:
         twin = ax_ts.twinx()
         twin.plot(z, np.asarray([np.nan if v is None else v for v in thread["slip_mm"]], dtype=float), "-",

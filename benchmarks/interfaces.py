@@ -1,4 +1,4 @@
-"""Benchmark: each thread interface model side by side with tied on the same scene (issue 25).
+"""Benchmark: each thread interface model side by side with tied on the same scene.
 
 Runs ``suture-fem run paper`` (P2, 0-4 N, reports at 1-4 N) for the given cone counts with
 ``effects.thread_interface`` tied, sliding and frictionless, one child process each, in one invocation. Prints a

@@ -20,7 +20,7 @@ log = logging.getLogger("suture_fem")
 #: Newton-increment stopping test (SNES ``stol``): a solve stops when its last increment is below this
 #: fraction of the state. With Newton converging at any rate below 1/2 the remaining error is below the
 #: last increment, so the answer is exact to about 1e-7 relative, ten times inside the 1e-6 the answers
-#: must keep (issue 14). Measured on the paper scene: P2 63 -> 55 Newton iterations per ramp, USUM
+#: must keep. Measured on the paper scene: P2 63 -> 55 Newton iterations per ramp, USUM
 #: changed by 8e-13 (benchmarks/speed.py).
 INCREMENT_RTOL = 1e-7
 #: A solve stopped by the increment test whose residual is above this fraction of the applied force (N)

@@ -1,4 +1,4 @@
-"""The hard-case matrix (issue "Hard cases stay numerically stable"): each case a scene, each run classified.
+"""The hard-case matrix: each case a scene, each run classified (converged or stopped with a diagnosis).
 
 Every case is the built-in ``paper`` scene (4 hollow cones, 4 N, degree 2, refinement 0) with a few
 ``--set`` overrides. A run must end one of two ways:

@@ -204,8 +204,8 @@ def _affine_triangles(mesh: Any, cells: np.ndarray) -> Any:
     """A vectorised point-in-triangle test on the cells' vertex triangles (None for a mesh of other cells).
 
     dolfinx's ``compute_colliding_cells`` runs a GJK distance query per (point, candidate cell) pair,
-    which made the critical-distance search cost more than the Newton solve of the paper scene (issue
-    14: 10 s of 24 s). For affine triangles the barycentric coordinates decide it exactly: a point is
+    which made the critical-distance search cost more than the Newton solve of the paper scene
+    (10 s of 24 s). For affine triangles the barycentric coordinates decide it exactly: a point is
     inside when no coordinate is below -d/h, h the cell's height over that edge, d
     :data:`_COLLISION_DISTANCE` (dolfinx's tolerance, so points on a shared edge are in both cells).
     Quadratic cells (``mesh.geometry_degree`` 2) are tested by their vertices' triangle too: exact for

@@ -1,4 +1,4 @@
-"""Issue 25, first part: the sliding thread and what the interface passes to the tissue.
+"""The sliding and frictionless thread, and what the interface passes to the tissue.
 
 A sliding thread (``effects.thread_interface = "sliding"``) is bilateral and frictionless: the tissue's
 side of the bare thread's track has its own nodes, held at r = r_t and free along it. Checked here:

@@ -16,7 +16,7 @@ pytestmark = pytest.mark.mpi
 
 QUANTITIES = ("usum_mm", "seqv_pa", "eptoeqv", "seqv_outside_rim_pa", "thread_end_displacement_mm",
               "reaction_force_n", "strain_energy_j", "seqv_cd_pa", "eptoeqv_cd", "seqv_fillet_pa", "eptoeqv_fillet")
-#: The critical-distance averages of each tissue layer and of the whole tissue (issue 17).
+#: The critical-distance averages of each tissue layer and of the whole tissue.
 CD_REGIONS = ("hypodermis", "dermis", "epidermis", "tissue")
 REGIONS = ("hypodermis", "dermis", "epidermis", "suture", "tissue")
 
@@ -73,8 +73,8 @@ def test_two_ranks_log_once_and_write_each_file_once(parallel_run):
     steps = [line for line in proc.stderr.splitlines() if "step   1 " in line]
     assert len(steps) == 1, proc.stderr
     assert proc.stdout.count("results in") == 1
-    # the fields, the results and the three pictures a run draws by default (issues 15 and 25), each once,
-    # from rank 0
+    # the fields, the results and the three pictures a run draws by default, each once, from
+    # rank 0
     assert sorted(p.name for p in out.iterdir()) == ["fields.h5", "fields.xdmf", "force_displacement.png",
                                                      "interface.png", "results.json", "usum.png"]
 

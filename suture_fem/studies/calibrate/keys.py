@@ -20,7 +20,7 @@ from suture_fem.support.errors import SceneError
 DIRECT = "direct"
 FINITE_DIFFERENCE = "central finite difference (remeshed)"
 
-#: Default bounds of the scales: a tissue 5 times softer to 5 times stiffer, likewise the force.
+#: Default bounds of the scales: tissue five times softer to five times stiffer, likewise the force.
 SCALE_BOUNDS = (0.2, 5.0)
 
 

@@ -4,8 +4,8 @@ The raw maximum stress at a sharp cone rim is a stress singularity: its "value" 
 refinement. Next to it the ledger follows maxima that have a limit: the maximum outside
 ``output.rim_exclusion_mm`` of every rim (``seqv_outside_rim_pa``), and the tissue's maxima farther
 than each of :data:`SINGULAR_FREE_MM` from every singular point (see
-:mod:`suture_fem.studies.convergence.singular`), and the two measures that converge by construction
-(issue 17): the peak on the resolved fillet (``seqv_fillet_pa``) and the critical-distance average
+:mod:`suture_fem.studies.convergence.singular`), and the two measures that converge by construction:
+the peak on the resolved fillet (``seqv_fillet_pa``) and the critical-distance average
 (``seqv_cd_pa``, and ``seqv_cd_cone_pa`` with the disc near a cone), with their strains.
 """
 
@@ -17,7 +17,7 @@ from typing import Any
 #: Ratio of element sizes between consecutive refinements (mesh.MeshSizes halves every size).
 REFINEMENT_RATIO = 2.0
 
-#: Accuracy goal of the two stress measures that converge by construction (issue 17): a ladder of one
+#: Accuracy goal of the two stress measures that converge by construction: a ladder of one
 #: of them is "settled" when it changes by less than this per refinement at its two finest rungs and
 #: its Richardson estimate agrees (:func:`~suture_fem.studies.convergence.richardson.richardson`).
 #: The other quantities keep the noise floor of a new mesh per rung (``SETTLED_REL``, 0.1 %) as their

@@ -58,7 +58,7 @@ def richardson(values: Sequence[float], ratio: float = REFINEMENT_RATIO, settled
     uncertainty (no order is measurable). An observed order at or below ``min_order`` is
     "diverging": no extrapolation is made.
 
-    ``tolerance`` is a quantity's own accuracy goal (issue 17: 2 % for the converging stress
+    ``tolerance`` is a quantity's own accuracy goal (2 % for the converging stress
     measures). The ladder is also "settled" when the change between its two finest rungs is within
     it and the Richardson estimate agrees: a converging ladder whose correction (extrapolated limit
     minus finest value) is within the tolerance too (limit and correction as extrapolated), or an

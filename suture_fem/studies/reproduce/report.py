@@ -43,7 +43,7 @@ def comparison_markdown(cmp: dict[str, Any], info: dict[str, Any]) -> str:
         "",
     ]
     lines += _values_section(cmp) + _relative_usum_section(cmp) + _trends_section(cmp)
-    lines += stress_markdown(cmp.get("stress"))  # issue 17: the converging measures with their error bars
+    lines += stress_markdown(cmp.get("stress"))  # the converging measures with their error bars
     lines += ["", "## Files", "", "`comparison.json` (everything above), `cones_N/results.json`, `fields/*.vtu`, "
               "`fig2_usum_4_cones.png`, `fig3_usum_1_n.png`, `fig4_force_displacement.png`, `trends_vs_cones.png`, "
               "`trends_vs_force.png`. See docs/reproduction.md.", ""]

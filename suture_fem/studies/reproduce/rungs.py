@@ -44,7 +44,7 @@ class Rung:
 
 _P2R0 = ("against the P2 r0 rung (at 1 and 4 cones P2 r0 is 0.1-0.2 % below the converged value, so the error "
          "may be that much larger)")
-#: Measured on 2026-11-30 (Debian 12, dolfinx 0.5.2, gmsh 4.8, sharp rims) with benchmarks/reproduce_rungs.py;
+#: Measured (Debian 12, dolfinx 0.5.2, gmsh 4.8, sharp rims) with benchmarks/reproduce_rungs.py;
 #: the table is in docs/speed.md. ``cpu_s``: the rung's process in the ladder (imports included, a shared machine).
 RUNGS: dict[int, Rung] = {
     1: Rung("P1 r0, suture 0.075 mm", {"mesh.degree": 1, "mesh.refinement": 0, "mesh.size_suture_mm": 0.075},

@@ -3,7 +3,7 @@
 The paper (Table 2, 1 N) gives SEQV 662 / 448 / 235 kPa and EPTOEQV 1.57 / 1.42 / 1.24 for 2 / 3 / 4 cones,
 and concludes "Increasing the number of cones led to the decrease in the equivalent local strain (around
 20 %) and stress (around 60 %)". Its SEQV is a raw maximum at a sharp rim, which has no limit under
-refinement. This module compares the paper with the measures that converge (issue 17): the tissue's
+refinement. This module compares the paper with the measures that converge: the tissue's
 critical-distance averages with the disc's centre near a cone (``seqv_cd_cone_pa``, ``eptoeqv_cd_cone``),
 the same over the whole tissue (``seqv_cd_pa``, ``eptoeqv_cd``) and the peak on the resolved fillet
 (``seqv_fillet_pa``, ``eptoeqv_fillet``), next to the raw maximum (mesh-dependent), and, with

@@ -30,7 +30,7 @@ MEASURED = ("seqv_cd_cone_pa", "eptoeqv_cd_cone", "seqv_cd_pa", "eptoeqv_cd", "s
 
 #: (cones, tissue_scale, cone_fillet_mm, critical_distance_mm) -> rung (degree, refinement) -> measure -> value
 #: at 1 N. Rungs of one ladder differ only in mesh.refinement (every size halves) or mesh.degree.
-#: Measured on 2026-11-30 (Debian 12, dolfinx 0.5.2, gmsh 4.8; paper_reproduction, sharp rims, 1 N, with the
+#: Measured (Debian 12, dolfinx 0.5.2, gmsh 4.8; paper_reproduction, sharp rims, 1 N, with the
 #: disc search and the near-cone averages of commit 2910b9e; the tissue-wide values are those of the search
 #: of commit 9886386 to the printed digits): tissue_scale 1 (uncalibrated) and 0.3112 (the calibrated value
 #: of docs/reproduction.md). Where the discs sit, in every rung: both stress averages (tissue-wide and near a

@@ -52,7 +52,7 @@ def reproduce(scene: Scene, out: Path, comm: Any, calibrate_key: str = DEFAULT, 
     cal["usum_mm_in_this_run"] = ours(results, TARGET.cones, TARGET.force_n, "usum_mm")[0]
     cmp = comparison(results, cal, scene, uncalibrated=uncalibrated, bands=solved["bands"],
                      errors=_estimates(solved, cones) if estimates else None)
-    # issue 17: the converging measures, as solved and uncalibrated, with their error bars
+    # the converging measures, as solved and uncalibrated, with their error bars
     cmp["stress"] = stress_comparison(results, uncalibrated=uncalibrated) if {2, 4} <= set(results) else None
     if pictures:
         cmp["figures"] = [str(p.name) for p in on_root(comm, "drawing the figures", figures, solved, out) or []]

@@ -93,7 +93,7 @@ def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: On
 
 def _check_axial_support(scene: Scene) -> None:
     """Stop with a diagnosis when nothing can hold the pull: a frictionless (sliding or unilateral) thread, no cone."""
-    if scene.effects.thread_interface in ("sliding", "frictionless") and scene.geometry.cones == 0:
+    if scene.effects.thread_track and scene.geometry.cones == 0:
         first = scene.loading.force_n * scene.solver.initial_step
         raise SolveStopped(StopCause.NO_AXIAL_SUPPORT, 0.0, first,
                            f'effects.thread_interface = "{scene.effects.thread_interface}" with geometry.cones = 0: a '

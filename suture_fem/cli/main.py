@@ -142,12 +142,12 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
             print(json.dumps(scene.as_dict(), indent=2))
         return 0
     if args.command == "mesh":
-        from suture_fem.geometry.mesh import check_msh_path, splits_thread, write_msh
+        from suture_fem.geometry.mesh import check_msh_path, write_msh
 
         path = check_msh_path(args.out or f"meshes/{_scene_name(args.scene)}.msh")
         if comm.rank == 0:
             path.parent.mkdir(parents=True, exist_ok=True)
-            record = write_msh(scene.geometry, scene.mesh, path, splits_thread(scene))
+            record = write_msh(scene.geometry, scene.mesh, path, scene.effects.thread_track)
             print(f"suture-fem: wrote {path} ({record['triangles']} triangles) and {path.with_suffix('.json')}")
         return 0
     if args.command == "run":

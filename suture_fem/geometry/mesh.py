@@ -76,14 +76,9 @@ def present_regions(tagged: TaggedMesh) -> dict[str, tuple[int, ...]]:
     return found
 
 
-def splits_thread(scene: Any) -> bool:
-    """Whether a scene's mesh gives the tissue its own nodes along the thread (a sliding thread)."""
-    return scene.effects.thread_interface in ("sliding", "frictionless")
-
-
 def scene_mesh(comm: Any, scene: Any) -> TaggedMesh:
     """:func:`create_mesh` of a scene (its geometry, mesh and thread interface)."""
-    return create_mesh(comm, scene.geometry, scene.mesh, split_thread=splits_thread(scene))
+    return create_mesh(comm, scene.geometry, scene.mesh, split_thread=scene.effects.thread_track)
 
 
 def check_msh_path(path: str | Path) -> Path:

@@ -23,11 +23,13 @@ length, is the shear ``tau``. Each part's profile is ordered by arc length ``s``
 suture's outline: along a cone from its apex on the thread, around its outer surface and (hollow) its
 inside, to where it meets the thread again; along the thread from the far tissue face, s = z.
 
-A sliding thread's track also gives the ``slip`` (mm): how far the thread has slid through the tissue
-at each track node (the reference position along the thread of the thread point that faces the node
-now, found by interpolation along the thread's deformed surface, subtracted from the node's own), and
-the track's largest ``gap`` (mm): the thread surface's radial contraction there, which the track
-(held at the thread's reference radius) does not follow.
+A thread track (sliding or frictionless thread) also gives the ``slip`` (mm): how far the thread has
+slid through the tissue at each track node (the reference position along the thread of the thread
+point that faces the node now, found by interpolation along the thread's deformed surface, subtracted
+from the node's own); the ``gap`` (mm): the node's radial motion off the track (positive: the tissue
+has left the thread; negative: the penalty's penetration), with the ranges where it has separated; and
+the thread's largest radial contraction along it, which the track (held at the thread's reference
+radius) does not follow.
 """
 
 from __future__ import annotations
@@ -80,7 +82,8 @@ class Interface(Quantity):
         self.n_owned = V.dofmap.index_map.size_local
         nodes = np.flatnonzero(on_facets & tissue)
         self.nodes = nodes[nodes < self.n_owned]
-        self.xy_mm = V.tabulate_dof_coordinates()[self.nodes, :2] / MM
+        xy = V.tabulate_dof_coordinates()[:, :2] / MM
+        self.xy_mm = xy[self.nodes]
         g = physics.tagged.geometry
         self.geometry = g
         self.names = part_names(len(g.cones))
@@ -97,9 +100,9 @@ class Interface(Quantity):
             self.track = on_track[self.nodes]
         thread_cells = meshmod.region_cells(physics.tagged, regions.Cell.THREAD)
         thread = _node_mask(V, thread_cells)
-        xy = V.tabulate_dof_coordinates()[:, :2] / MM
         surface = thread & (np.abs(xy[:, 0] - g.r_thread) < 1e-9 * max(g.z_end, 1.0))
         self.thread_surface = np.flatnonzero(surface[: self.n_owned])
+        self.thread_xy_mm = xy[self.thread_surface]
         self._area_normal: tuple[np.ndarray, np.ndarray] | None = None
 
     @staticmethod
@@ -123,11 +126,12 @@ class Interface(Quantity):
         local = {
             "xy": self.xy_mm, "force": force, "area": area[self.nodes], "normal": normal[self.nodes],
             "part": self.part, "track": self.track, "u": u[self.nodes] / MM,
-            "thread_xy": (physics.V.tabulate_dof_coordinates()[self.thread_surface, :2] / MM),
+            "thread_xy": self.thread_xy_mm,
             "thread_u": u[self.thread_surface] / MM,
         }
         gathered = comm.allgather(local)
         merged = {key: np.concatenate([g[key] for g in gathered]) for key in local}
+        merged["thread_z_now"], merged["thread_order"] = _thread_map(merged)
         profiles = _profiles(merged, self.geometry, self.names)
         total = float(np.sum(shares))
         return {
@@ -293,7 +297,7 @@ def _slip(m: dict[str, np.ndarray], sel: np.ndarray) -> np.ndarray:
     the thread point facing a track node now is Z_t with z(Z_t) = the node's deformed z, and the slip
     is the node's reference Z minus Z_t (positive toward the pull).
     """
-    tz, order = _thread_map(m)
+    tz, order = m["thread_z_now"], m["thread_order"]
     Z = m["xy"][sel, 1]
     z_now = Z + m["u"][sel, 1]
     facing = np.interp(z_now, tz[order], m["thread_xy"][order, 1], left=np.nan, right=np.nan)
@@ -324,7 +328,7 @@ def _track_summary(m: dict[str, np.ndarray], profiles: dict[str, Any]) -> dict[s
     if not np.any(m["track"]):
         return {}
     slip = np.asarray(profiles[THREAD].get("slip_mm", []), dtype=float)
-    tz, order = _thread_map(m)
+    tz, order = m["thread_z_now"], m["thread_order"]
     sel = np.flatnonzero(m["track"])
     z_now = m["xy"][sel, 1] + m["u"][sel, 1]
     ur = np.interp(z_now, tz[order], m["thread_u"][order, 0], left=np.nan, right=np.nan)

@@ -219,6 +219,10 @@ class OutputSection:
     quantities: tuple[str, ...] = key(Rule("strs", choices=("usum", "seqv", "eptoeqv", "interface")))
 
 
+#: The thread interfaces whose tissue side has its own nodes along the bare thread (the split track).
+TRACK_INTERFACES = ("sliding", "frictionless")
+
+
 @dataclass(frozen=True)
 class EffectsSection:
     """``[effects]``: the physics a scene calls for, and the constants of each effect."""
@@ -238,8 +242,13 @@ class EffectsSection:
     time_step_s: float = key(_pos(1e6), S)
     gravity_m_s2: float = key(_pos(1e3, lo_open=False), "m/s^2")
     gravity_direction: str = key(Rule("str", choices=("-z", "+z")))
-    thread_interface: str = key(Rule("str", choices=("tied", "sliding", "frictionless")))
+    thread_interface: str = key(Rule("str", choices=("tied", *TRACK_INTERFACES)))
     contact_penalty: float = key(_pos(1e8))
+
+    @property
+    def thread_track(self) -> bool:
+        """The tissue has its own nodes along the bare thread (a sliding or a frictionless thread)."""
+        return self.thread_interface in TRACK_INTERFACES
 
     def density(self, region: str) -> float:
         """Mass density (kg/m^3) of a material region."""

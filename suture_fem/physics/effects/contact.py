@@ -21,8 +21,6 @@ see it.
 
 from __future__ import annotations
 
-from typing import Any
-
 import dolfinx.fem
 import ufl
 from petsc4py import PETSc
@@ -42,11 +40,10 @@ def penalty_stiffness(scene: Scene, suture_size_mm: float) -> float:
     return scene.effects.contact_penalty * bulk / (suture_size_mm * MM)
 
 
-def contact_term(ctx: FormContext, kappa: float, terms: Terms) -> Any:
-    """The penalty's potential on the track (added to ``terms``); returns kappa's Constant."""
+def contact_term(ctx: FormContext, kappa: float, terms: Terms) -> None:
+    """The penalty's potential on the track, added to ``terms`` as ``contact:thread``."""
     mesh = ctx.w.function_space.mesh
     stiffness = dolfinx.fem.Constant(mesh, PETSc.ScalarType(kappa))
     ur = ctx.u[0]
     closed = ufl.conditional(ufl.lt(ur, 0.0), ur, 0.0)
     terms.potential["contact:thread"] = 0.5 * stiffness * closed**2 * ctx.weight * ctx.ds(int(Facet.TRACK))
-    return stiffness

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from suture_fem.scene.model import Scene
+from suture_fem.scene.schema import TRACK_INTERFACES
 from suture_fem.support.errors import SceneError
 
 #: The output quantities a scene may request (``output.quantities``), in the order they are computed.
@@ -59,7 +60,7 @@ class Effects:
     @property
     def thread_track(self) -> bool:
         """The tissue has its own nodes along the bare thread (a sliding or a frictionless thread)."""
-        return self.thread_interface in ("sliding", "frictionless")
+        return self.thread_interface in TRACK_INTERFACES
 
     @property
     def unilateral_thread(self) -> bool:

@@ -113,7 +113,7 @@ def test_a_frictionless_sliding_thread_passes_no_axial_force_and_lifts_more(tied
     assert 1.03 < rec["thread_end_displacement_mm"] / ref["thread_end_displacement_mm"] < 1.2
 
 
-def test_the_slip_grows_toward_the_pull_and_the_track_gap_is_the_thread_poisson_contraction(sliding):
+def test_the_slip_grows_toward_the_pull_and_the_thread_contracts_by_its_poisson_closed_form(sliding):
     rec = sliding["at_forces"][-1]
     thread = rec["interface"]["profiles"]["thread"]
     z = np.array(thread["z_mm"])

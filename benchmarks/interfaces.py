@@ -1,8 +1,8 @@
 """Benchmark: each thread interface model side by side with tied on the same scene.
 
 Runs ``suture-fem run paper`` (P2, 0-4 N, reports at 1-4 N) for the given cone counts with
-``effects.thread_interface`` tied, sliding and frictionless, one child process each, in one invocation. Prints a
-table and writes JSON: USUM and the thread end's displacement at each reported force, the load share
+``effects.thread_interface`` tied, sliding, frictionless and coulomb, one child process each, in one invocation.
+Prints a table and writes JSON: USUM and the thread end's displacement at each reported force, the load share
 of the thread and of each cone at the peak, Newton iterations, load steps, cutbacks, CPU seconds and
 peak memory.
 
@@ -22,7 +22,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from speed import ROOT, run  # noqa: E402
 
-MODELS = ("tied", "sliding", "frictionless")
+MODELS = ("tied", "sliding", "frictionless", "coulomb")
 
 
 def case(cones: int, model: str, extra: list[str], out: Path) -> dict:

@@ -92,13 +92,17 @@ def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: On
 
 
 def _check_axial_support(scene: Scene) -> None:
-    """Stop with a diagnosis when nothing can hold the pull: a frictionless (sliding or unilateral) thread, no cone."""
+    """Stop with a diagnosis when nothing can hold the pull: a thread in its own track (sliding, unilateral), no cone.
+
+    A Coulomb thread cannot hold it either: nothing presses the tissue onto the thread before the cones do.
+    """
     if scene.effects.thread_track and scene.geometry.cones == 0:
         first = scene.loading.force_n * scene.solver.initial_step
         raise SolveStopped(StopCause.NO_AXIAL_SUPPORT, 0.0, first,
                            f'effects.thread_interface = "{scene.effects.thread_interface}" with geometry.cones = 0: a '
-                           "frictionless thread passes no axial force to the tissue, so no state balances a pull (the "
-                           "tissue holds the thread only through the cones)")
+                           "thread in its own track passes no axial force to the tissue without a cone (frictionless "
+                           "it cannot; with friction nothing presses the tissue onto it before a cone does), so no "
+                           "state balances a pull")
 
 
 #: What a run writes in its output folder; removed before a new run writes there (pictures by the cli).

@@ -134,6 +134,11 @@ class Interface(Quantity):
         merged["thread_z_now"], merged["thread_order"] = _thread_map(merged)
         profiles = _profiles(merged, self.geometry, self.names)
         total = float(np.sum(shares))
+        friction = {}
+        if physics.friction is not None:  # how many track nodes stick, slip, are open; the law's residual
+            state = compat.function_vector(physics.state)
+            law = physics.friction
+            friction = {"friction": {**law.status(state), "coulomb_residual_n": law.residual(state)}}
         return {
             "load_share_n": {name: float(v) for name, v in zip(self.names, shares)},
             "load_share_total_n": total,
@@ -142,6 +147,7 @@ class Interface(Quantity):
                 "cones": "tied",
                 "profiles": profiles,
                 **_track_summary(merged, profiles),
+                **friction,
             },
         }
 

@@ -1,15 +1,11 @@
 """Physics: the discrete problem of a scene, assembled from the effects it calls for.
 
-The quasi-static problem is the stationarity of the total potential
-
-    Pi(u) = sum_regions  int W_region(F(u)) 2 pi r dr dz  -  int t . u 2 pi r ds_pull
-
-with t = F / (pi r_t^2) e_z on the thread's pulled end face, so that the 2 pi r-weighted integral of t
-over the face is exactly the applied force F. The residual is the Gateaux derivative of Pi (plus the
-non-potential terms of the called effects: the pressure equation of the mixed formulation, inertia,
-damping) and the Jacobian its derivative again (UFL), so the tangent is exactly consistent.
-Outer epidermis surface: u = 0. Axis: u_r = 0. Everything else traction-free
-(:mod:`suture_fem.physics.constraints`).
+The quasi-static problem is the stationarity of Pi(u) = sum_regions int W_region(F(u)) 2 pi r dr dz -
+int t . u 2 pi r ds_pull, t = F / (pi r_t^2) e_z on the thread's pulled end face (its 2 pi r-weighted
+integral is the applied force F). The residual is the Gateaux derivative of Pi (plus the
+non-potential terms of the called effects: the mixed formulation's pressure equation, inertia, damping;
+friction's nodal terms are added by the solver) and the Jacobian its derivative again (UFL).
+Outer epidermis surface: u = 0. Axis: u_r = 0. Else traction-free (:mod:`suture_fem.physics.constraints`).
 
 Which terms exist is decided by :mod:`suture_fem.physics.effects`: an effect a scene leaves off is
 never built (``Physics.terms`` names what was built; :meth:`Physics.effects_record` says what was not
@@ -61,6 +57,7 @@ from suture_fem.physics.effects import (
     strain_energy,
 )
 from suture_fem.physics.effects.contact import contact_term, penalty_stiffness
+from suture_fem.physics.effects.friction import ThreadFriction
 from suture_fem.physics.forms import FormContext, Terms, measures, pull_term, restricted
 from suture_fem.physics.materials import Material, with_constants
 from suture_fem.scene.model import MaterialsSection, Scene
@@ -82,6 +79,7 @@ class Physics:
         terms: residual contributions by effect (UFL forms); residual, jacobian: their sum and its derivative.
         tissue_residual: the residual over the tissue's cells (:mod:`suture_fem.outputs.interface`).
         contact_energy: the contact penalty's energy (UFL; None without it), for the line search's objective.
+        friction: a Coulomb thread's nodal terms (:class:`ThreadFriction`; None without), added by the solver.
         bcs: Dirichlet conditions, in W (zero, except u_z = d on a rigid suture).
         energy: strain energy (J); end_displacement: 2 pi r-weighted integral of u_z over the pulled face.
         outer_z_dofs: the outer surface's u_z dofs (where the reaction force is read); pull_area: pi r_t^2.
@@ -121,6 +119,7 @@ class Physics:
     dynamics: Dynamics | None = None
     u_in_state: np.ndarray | None = None
     rigid_displacement: Any = None
+    friction: ThreadFriction | None = None
     notes: dict[str, dict[str, Any]] = field(default_factory=dict)
     parameters: dict[str, Any] = field(default_factory=dict)
     _compiled: dict[str, Any] = field(default_factory=dict, repr=False)
@@ -264,7 +263,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     u = spaces.u
     F = kinematics.deformation_gradient(u, ctx.x)
     r_t = tagged.geometry.r_thread * regions.MM
-    return Physics(
+    physics = Physics(
         tagged=tagged,
         degree=degree,
         effects=effects,
@@ -295,6 +294,9 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         notes=_notes(tagged, effects, scene.effects, dynamics, constraints.notes, kappa),
         parameters=parameters,
     )
+    if effects.frictional_thread:
+        physics.friction = ThreadFriction.on(physics, scene.effects, kappa)
+    return physics
 
 
 def _displacement_of(mixed: bool) -> Callable[[Any], Any]:

@@ -220,7 +220,7 @@ class OutputSection:
 
 
 #: The thread interfaces whose tissue side has its own nodes along the bare thread (the split track).
-TRACK_INTERFACES = ("sliding", "frictionless")
+TRACK_INTERFACES = ("sliding", "frictionless", "coulomb")
 
 
 @dataclass(frozen=True)
@@ -244,6 +244,8 @@ class EffectsSection:
     gravity_direction: str = key(Rule("str", choices=("-z", "+z")))
     thread_interface: str = key(Rule("str", choices=("tied", *TRACK_INTERFACES)))
     contact_penalty: float = key(_pos(1e8))
+    friction_coefficient: float = key(Rule("float", lo=0.0, hi=2.0))
+    friction_slip_mm: float = key(_pos(1.0), MM)
 
     @property
     def thread_track(self) -> bool:

@@ -1,8 +1,7 @@
 """Newton's method: PETSc SNES (Newton + line search, direct LU) on the reduced unknowns.
 
-SNES solves for x, the unknowns of :class:`~suture_fem.physics.constraints.Unknowns`, with the state
-u = T x (+ g) (:class:`~suture_fem.solve.reduction.Reduction`); the residual and Jacobian are
-T^T R(T x) and T^T A T, so the (zero) Dirichlet conditions and the rigid constraint need no special rows.
+SNES solves for x (:class:`~suture_fem.physics.constraints.Unknowns`), the state being u = T x (+ g)
+(:class:`~suture_fem.solve.reduction.Reduction`): the residual and Jacobian are T^T R(T x) and T^T A T.
 
 These guards keep hard cases from producing silent wrong numbers or stalling for nothing (the
 adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping`):
@@ -51,6 +50,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from suture_fem.physics.effects.friction import settle
 from suture_fem.scene.schema import SolverSection
 from suture_fem.solve import inertia
 from suture_fem.solve.guard import DomainGuard, Violation
@@ -95,6 +95,9 @@ class NewtonSolver(Linearised):
         self.reduction = Reduction(problem, offset)
         self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
         self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
+        self.friction = getattr(problem, "friction", None)  # a Coulomb thread's nodal terms
+        if self.friction is not None:
+            self.friction.extend_pattern(self.A_full)
         self._assemble_full_jacobian()
         self.A = self.A_full.ptap(self.reduction.T)
         self.b = self.reduction.create_vector()
@@ -192,25 +195,39 @@ class NewtonSolver(Linearised):
                 b.set(OUTSIDE_DOMAIN_RESIDUAL)
             return
         t0 = time.perf_counter()
+        self._assemble_full_residual()
+        self.reduction.T.multTranspose(self.b_full, b)
+        self.timings.assembly += time.perf_counter() - t0
+
+    def _assemble_full_residual(self) -> None:
+        """R at the current state into ``b_full`` (owned entries), friction's nodal terms included."""
         with self.b_full.localForm() as b_local:
             b_local.set(0.0)
         dolfinx.fem.petsc.assemble_vector(self.b_full, self.F_form)
         self.b_full.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self.reduction.T.multTranspose(self.b_full, b)
-        self.timings.assembly += time.perf_counter() - t0
+        if self.friction is not None:
+            self.friction.add_residual(compat.function_vector(self.physics.state), self.b_full)
 
     def _objective(self, snes: Any, x: Any) -> float:
         if not self._trial_admissible(x):
             return OUTSIDE_DOMAIN_RESIDUAL
+        return self._potential()
+
+    def _potential(self) -> float:
+        """The objective at the current state, friction's potential included (collective; timed as assembly)."""
         t0 = time.perf_counter()
-        value = dolfinx.fem.assemble_scalar(self.objective_form)
+        value = float(self.physics.comm.allreduce(dolfinx.fem.assemble_scalar(self.objective_form), op=MPI.SUM))
+        if self.friction is not None:
+            value += self.friction.potential(compat.function_vector(self.physics.state))
         self.timings.assembly += time.perf_counter() - t0
-        return float(self.physics.comm.allreduce(value, op=MPI.SUM))
+        return value
 
     def _assemble_full_jacobian(self) -> None:
         self.A_full.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
         self.A_full.assemble()
+        if self.friction is not None:
+            self.friction.add_jacobian(compat.function_vector(self.physics.state), self.A_full)
 
     def _jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         self.jacobian_current = True  # the factorisation SNES makes next is A at this iterate
@@ -254,8 +271,16 @@ class NewtonSolver(Linearised):
         """One Newton solve from the current state; returns (converged, iterations, reason).
 
         The reason is the name of SNES's converged reason (e.g. "CONVERGED_FNORM_ABS"), or
-        :data:`PETSC_ERROR`.
+        :data:`PETSC_ERROR`. With Coulomb friction, solves until its slip bound settles
+        (:func:`~suture_fem.physics.effects.friction.settle`; iterations summed).
         """
+        if self.friction is None:
+            return self._solve_once()
+        return settle(self.friction, self._solve_once, lambda: compat.function_vector(self.physics.state),
+                      lambda: max(self.options.atol, self.floor))
+
+    def _solve_once(self) -> tuple[bool, int, str]:
+        """One SNES solve from the current state (see :meth:`solve`)."""
         self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
         self.jacobian_current = False
         self.outside_domain = self.inertia_shifts = 0
@@ -307,15 +332,11 @@ class NewtonSolver(Linearised):
         """How far the current state is from balance: the potential (with an objective) or |R|; inf outside."""
         if not self.guard.admissible():
             return float("inf")
+        if self.objective_form is not None:
+            return self._potential()
         t0 = time.perf_counter()
         try:
-            if self.objective_form is not None:
-                value = dolfinx.fem.assemble_scalar(self.objective_form)
-                return float(self.physics.comm.allreduce(value, op=MPI.SUM))
-            with self.b_full.localForm() as b_local:
-                b_local.set(0.0)
-            dolfinx.fem.petsc.assemble_vector(self.b_full, self.F_form)
-            self.b_full.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            self._assemble_full_residual()
             self.reduction.T.multTranspose(self.b_full, self._work)
             return self._work.norm()
         finally:
@@ -347,6 +368,7 @@ def factor_type(problem: Discrete, linear_solver: str) -> str:
     Symmetric: a scene's static, plain displacement problem (the Hessian of an energy). Not: the mixed
     formulation (its pressure rows are (U'(J) - p)/K0, not a derivative of the same potential), inertia
     (stiffness-proportional damping), and problems without effects (the verification problems keep LU).
+    Coulomb friction's terms, at a frozen slip bound, are symmetric (:mod:`~suture_fem.physics.effects.friction`).
     """
     effects = getattr(problem, "effects", None)
     if linear_solver != "mumps" or effects is None or effects.mixed or effects.inertia:
@@ -357,12 +379,12 @@ def factor_type(problem: Discrete, linear_solver: str) -> str:
 def _potential_form(problem: Discrete) -> Any:
     """The total potential energy (strain energy minus the pull's work) as SNES's objective, or None.
 
-    With an objective the backtracking line search asks for a decrease of the energy instead of the
-    residual norm (the residual norm is a poor merit function where the tissue is nearly
-    incompressible). The potential is the residual's only for a static, plain displacement scene
-    without gravity. Measured on the paper scene (benchmarks/speed.py): P1 76 -> 38 Newton
-    iterations per 0-4 N ramp, same USUM to 1e-15; P2 61 -> 160 (the first step from rest fails
-    and is cut three times), so it is used at degree 1 only.
+    With an objective the backtracking line search asks for a decrease of the energy instead of the residual
+    norm (a poor merit function where the tissue is nearly incompressible). The potential is the residual's
+    only for a static, plain displacement scene without gravity (Coulomb friction adds its potential at its
+    frozen bound). Measured on the paper scene (benchmarks/speed.py): P1 76 -> 38 Newton iterations per
+    0-4 N ramp, same USUM to 1e-15; P2 61 -> 160 (the first step from rest fails and is cut three times),
+    so it is used at degree 1 only.
     """
     effects = getattr(problem, "effects", None)
     if effects is None or effects.mixed or effects.inertia or effects.gravity or getattr(problem, "degree", 0) != 1:

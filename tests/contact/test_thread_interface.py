@@ -5,7 +5,9 @@ side of the bare thread's track has its own nodes, held at r = r_t and free alon
 the mesh split (the tissue and the thread share no node along the bare thread, the cones stay tied),
 the load shares (they sum to the pull; a frictionless thread passes no axial force), the slip and
 the track's gap against the thread's closed-form Poisson contraction, the lift it adds, 2 ranks equal
-to serial, and the diagnosed stop of a sliding thread with nothing to hold it.
+to serial, and the diagnosed stop of a sliding thread with nothing to hold it. A frictionless thread
+the tissue may leave, and a Coulomb thread (friction_coefficient 0, 0.1, 0.5): the limits its lift must
+respect (between tied and frictionless, growing as friction falls, frictionless at 0), its law, 2 ranks.
 """
 
 from __future__ import annotations
@@ -80,11 +82,14 @@ def test_the_split_mesh_shares_no_node_along_the_bare_thread_and_keeps_the_cones
     assert split_thread <= tied_cone and len(split_thread) == 2 * 2  # two junctions per hollow cone
 
 
-def test_an_interface_model_that_is_not_built_is_refused_in_one_line():
-    proc = cli(["show", "paper", "--set", 'effects.thread_interface="coulomb"'])  # not built yet
+@pytest.mark.parametrize("override, key", [('effects.thread_interface="glued"', "effects.thread_interface"),
+                                           ("effects.friction_coefficient=2.5", "effects.friction_coefficient")])
+def test_an_interface_model_or_coefficient_out_of_range_is_refused_in_one_line(override, key):
+    proc = cli(["show", "paper", "--set", override])
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and "effects.thread_interface" in lines[0] and '"sliding"' in lines[0], proc.stderr
+    assert len(lines) == 1 and key in lines[0], proc.stderr
+    assert '"coulomb"' in lines[0] if key.endswith("interface") else "2" in lines[0]
 
 
 def test_the_load_shares_sum_to_the_pull_and_the_tied_thread_carries_some(tied):
@@ -198,3 +203,58 @@ def test_a_frictionless_thread_the_tissue_may_leave_opens_but_is_not_entered(sli
     assert np.min(p) > -1e-9 * peak
     # fewer constraints than the bilateral track: the pulled end moves at least as far
     assert rec["thread_end_displacement_mm"] >= bilateral["thread_end_displacement_mm"] * (1 - 1e-9)
+
+
+def _coulomb(mu: float) -> list[str]:
+    return [*SCENE, "effects.thread_interface=\"coulomb\"", f"effects.friction_coefficient={mu}"]
+
+
+@pytest.fixture(scope="module")
+def coulomb(tmp_path_factory):
+    """Coulomb threads by friction coefficient."""
+    return {mu: _run(tmp_path_factory, f"coulomb_{mu}", _coulomb(mu)) for mu in (0.0, 0.1, 0.5)}
+
+
+def test_coulomb_friction_lifts_between_tied_and_frictionless_and_more_as_friction_falls(tied, unilateral, coulomb):
+    usum = {mu: res["at_forces"][-1]["usum_mm"] for mu, res in coulomb.items()}
+    tied_usum, frictionless_usum = tied["at_forces"][-1]["usum_mm"], unilateral["at_forces"][-1]["usum_mm"]
+    # friction coefficient 0 is the frictionless thread: the same terms, zero
+    assert usum[0.0] == pytest.approx(frictionless_usum, rel=1e-9)
+    assert tied_usum < usum[0.5] < usum[0.1] < usum[0.0]
+    thread = {mu: res["at_forces"][-1]["load_share_n"]["thread"] for mu, res in coulomb.items()}
+    assert abs(thread[0.0]) < 1e-9 and 0.0 < thread[0.1] < thread[0.5]
+    for res in coulomb.values():
+        rec = res["at_forces"][-1]
+        assert sum(rec["load_share_n"].values()) == pytest.approx(rec["force_n"], rel=1e-9)
+
+
+def test_coulomb_friction_obeys_its_law_where_the_tissue_touches_the_thread(coulomb):
+    res = coulomb[0.5]
+    interfaces = res["effects"]["interfaces"]
+    assert interfaces["thread"] == "coulomb" and interfaces["friction_coefficient"] == 0.5
+    friction = res["at_forces"][-1]["interface"]["friction"]
+    assert friction["stick_nodes"] + friction["slip_nodes"] + friction["open_nodes"] == interfaces["friction_pairs"]
+    assert friction["slip_nodes"] > 0 and friction["open_nodes"] > 0
+    assert friction["coulomb_residual_n"] <= max(res["residual_floor_n"], 1e-10)
+    # along the track the shear is at most mu times the pressure (nominal tractions)
+    prof = res["at_forces"][-1]["interface"]["profiles"]["thread"]
+    gap = np.array(prof["gap_mm"], dtype=float)
+    track = gap != 0.0  # a tied node (a cone's junction) has no gap of its own
+    shear = np.abs(np.array(prof["shear_pa"], dtype=float))[track]
+    pressure = np.array(prof["pressure_pa"], dtype=float)[track]
+    # the tractions' round-off: the residual's floor (N) over the smallest lumped area, pi r_t h (m^2)
+    r_t, h = res["scene"]["geometry"]["thread_radius_mm"] * 1e-3, res["sizes_mm"]["suture"] * 1e-3
+    noise = res["residual_floor_n"] / (math.pi * r_t * h)
+    assert np.all(shear <= 0.5 * np.maximum(pressure, 0.0) * (1 + 1e-6) + noise)  # 1e-6: results.json's 7 digits
+    assert np.any((shear > 0.49 * pressure) & (pressure > 1e3 * noise))  # some of it slides at the limit
+    # none where nothing presses (an open node next to a closed facet still carries part of its pressure)
+    assert np.all(shear[pressure <= noise] <= noise) and np.count_nonzero(pressure <= noise) > len(pressure) // 2
+
+
+def test_two_ranks_give_the_serial_coulomb_thread(tmp_path_factory, coulomb):
+    a = coulomb[0.5]["at_forces"][-1]
+    b = _run(tmp_path_factory, "coulomb_2", _coulomb(0.5), ranks=2)["at_forces"][-1]
+    assert b["usum_mm"] == pytest.approx(a["usum_mm"], rel=1e-7)
+    for name in a["load_share_n"]:
+        assert b["load_share_n"][name] == pytest.approx(a["load_share_n"][name], rel=1e-6, abs=1e-9)
+    assert b["interface"]["friction"]["slip_nodes"] == a["interface"]["friction"]["slip_nodes"]

@@ -64,8 +64,13 @@ class Effects:
 
     @property
     def unilateral_thread(self) -> bool:
-        """The tissue may leave the thread (``effects.thread_interface = "frictionless"``)."""
-        return self.thread_interface == "frictionless"
+        """The tissue may leave the thread (``effects.thread_interface = "frictionless"`` or ``"coulomb"``)."""
+        return self.thread_interface in ("frictionless", "coulomb")
+
+    @property
+    def frictional_thread(self) -> bool:
+        """Coulomb friction between the thread and the tissue (``effects.thread_interface = "coulomb"``)."""
+        return self.thread_interface == "coulomb"
 
     @property
     def mixed(self) -> bool:
@@ -116,6 +121,12 @@ class Effects:
         if self.sliding_thread:
             rec["thread_model"] = ("bilateral frictionless sliding: the tissue's side of the thread's track has its "
                                    "own nodes, held at r = thread radius (u_r = 0) and free along it")
+        elif self.frictional_thread:
+            rec["thread_model"] = ("unilateral contact with Coulomb friction: the tissue's side of the thread's track "
+                                   "has its own nodes, free to leave the thread (u_r > 0) but not to enter it (a "
+                                   "penalty), and sticks to the thread node it faced in the reference configuration "
+                                   "until the axial traction reaches mu times the contact pressure (a penalty's "
+                                   "elastic slip), then slides")
         elif self.unilateral_thread:
             rec["thread_model"] = ("unilateral frictionless contact: the tissue's side of the thread's track has its "
                                    "own nodes, free along it and free to leave the thread (u_r > 0) but not to "

@@ -26,9 +26,15 @@ CURVE_FRACTIONS = tuple(np.linspace(0.1, 1.0, 10))
 
 
 def check_scene(scene: Scene) -> None:
-    """A calibration solves quasi-static ramps: a scene with inertia is refused (SceneError)."""
+    """A calibration solves quasi-static ramps with exact sensitivities: inertia and friction are refused (SceneError).
+
+    Coulomb friction's terms are assembled outside the forms the sensitivities differentiate.
+    """
     if scene.effects.inertia:
         raise SceneError("scene key effects.inertia = true: calibrate fits quasi-static ramps (set it false)")
+    if scene.effects.thread_interface == "coulomb":
+        raise SceneError('scene key effects.thread_interface = "coulomb": calibrate\'s sensitivities do not include '
+                         'friction (use "tied", "sliding" or "frictionless")')
 
 
 def calibrate(scene: Scene, points: list[Point], keys: list[FitKey], comm: Any, out: Path | None = None,

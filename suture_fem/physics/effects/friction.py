@@ -1,0 +1,294 @@
+"""Coulomb friction between the thread and the tissue's side of its track (``effects.thread_interface = "coulomb"``).
+
+The normal part is the frictionless thread's (:mod:`suture_fem.physics.effects.contact`): the tissue's
+track nodes may leave the thread (u_r > 0) but not enter it, by the penalty p = kappa <-u_r>. The
+tangential part acts node to node, between each track node a (the tissue's) and the thread's surface node
+b it faced in the reference configuration, on the relative axial displacement g = u_z(a) - u_z(b):
+
+    t = b_a tanh(g / s),   b_a -> mu p_a (Coulomb's slip limit),
+
+s = ``effects.friction_slip_mm`` the regularising slip (CONTACT.md: a sharp stick/slip switch makes
+Newton chatter; an arctan or elastic-slip law helps; MOOSE and FEBio regularise the same way). Node a
+receives the residual w t and node b its opposite, w the node's 2 pi r-weighted lumped track area.
+
+The bound b is held fixed during a Newton solve (Tresca friction: the terms are then the derivative of
+w b s ln cosh(g / s), so the Jacobian stays symmetric and the line search's energy objective stays
+exact), and moved to mu p between solves until it settles: a fixed point on the contact pressure
+(Panagiotopoulos's process; Wriggers, Computational Contact Mechanics, 2006, section 10.5), relaxed by
+Aitken's factor (:meth:`ThreadFriction.update_bound`). A step is converged when the friction forces
+differ from Coulomb's by less than the solver's absolute tolerance (:mod:`suture_fem.solve.newton`).
+Coupling the bound to the pressure inside Newton (the non-symmetric Coulomb tangent) was tried first:
+a track node at the open/closed kink with a large slip switches its friction force on and off between
+iterations, and Newton stalled on the paper scene's first load step.
+
+The law is written on the total slip g (a deformation theory of friction): the same as an incremental
+law wherever the slip grows in one direction, which a monotone pull gives; a slip that reverses is not
+followed (the traction flips only when g changes sign).
+
+Pairing by reference position is exact for the rigid suture (every thread node moves by the same d) and
+for the elastic suture up to the thread's stretch over the slip: the thread point facing node a after a
+slip of length l is displaced by u_z(b) + eps l, eps the thread's axial strain (F / (pi r_t^2 E)), so g
+is off by eps l where the tissue slips (the friction force there is b sign(g) either way) and the
+friction force reaches the thread up to l from where it acts. No contact search is needed at any slip.
+
+The terms are assembled here, by hand, from arrays of node pairs (UFL forms cannot couple two nodes that
+share no cell), into the full residual and Jacobian before the solver's reduction; the Jacobian's
+sparsity is extended once by the pairs' couplings.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry import regions
+from suture_fem.geometry.regions import Facet
+from suture_fem.physics.constraints import mark_dofs
+from suture_fem.physics.forms import measures
+from suture_fem.support import compat
+
+#: Newton solves at most per load step (the slip bound's fixed point), and the reason a step fails with
+#: when the bound has not settled by then.
+FIXED_POINT_SOLVES = 30
+NOT_SETTLED = "friction_bound_not_settled"
+#: Aitken's relaxation factor is kept in this range (a factor above 1 extrapolates).
+OMEGA_MIN, OMEGA_MAX = 0.01, 2.0
+#: Reference positions closer than this (m) are the same node of a split track (duplicated coordinates).
+MATCH_TOLERANCE_M = 1e-12
+
+
+class ThreadFriction:
+    """Coulomb friction's nodal terms on a split thread track (see the module docstring).
+
+    Attributes:
+        mu: the friction coefficient; kappa: the normal and tangential penalty stiffness (Pa/m).
+        pairs: owned track nodes on this rank; dofs: (pairs, 3) global dofs (u_r(a), u_z(a), u_z(b));
+        weight: (pairs,) each node's 2 pi r-weighted lumped track area (m^2).
+    """
+
+    def __init__(self, physics: Any, mu: float, kappa: float, slip_m: float):
+        """Pair the tissue's owned track nodes with the thread's surface nodes and build their scatter."""
+        self.mu, self.kappa, self.slip = float(mu), float(kappa), float(slip_m)
+        self.comm = physics.comm
+        track, thread, weight = _nodes(physics)
+        self.dofs, self.weight = _pairs(physics, track, thread, weight)
+        self.track = track
+        self._normal = _normal_form(physics, kappa)
+        self.pairs = len(self.weight)
+        self.bound = np.zeros(self.pairs)  # mu p_bound (Pa): the frozen slip limit of each pair
+        self.start()
+        state = compat.function_vector(physics.state)
+        self._local = PETSc.Vec().createSeq(3 * self.pairs, comm=PETSc.COMM_SELF)
+        index = PETSc.IS().createGeneral(self.dofs.ravel().astype(PETSc.IntType), comm=PETSc.COMM_SELF)
+        self._scatter = PETSc.Scatter().create(state, index, self._local, None)
+        index.destroy()
+
+    @classmethod
+    def on(cls, physics: Any, section: Any, kappa: float) -> ThreadFriction:
+        """The friction of a built Physics (its track split, its normal penalty kappa); its numbers join the record.
+
+        ``section``: the scene's ``[effects]`` (``friction_coefficient``, ``friction_slip_mm``).
+        """
+        friction = cls(physics, section.friction_coefficient, kappa, section.friction_slip_mm * regions.MM)
+        physics.notes.setdefault("interfaces", {}).update(friction.notes())
+        return friction
+
+    def _values(self, u_vec: Any) -> np.ndarray:
+        """(pairs, 3): u_r(a), u_z(a), u_z(b) at the state vector ``u_vec`` (collective)."""
+        self._scatter.scatter(u_vec, self._local, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        return self._local.getArray(readonly=True).reshape(-1, 3).copy()
+
+    def law(self, values: np.ndarray) -> dict[str, np.ndarray]:
+        """Traction t (Pa, on the tissue's node against its slip) at the frozen bound, and its slip derivative."""
+        g = values[:, 1] - values[:, 2]
+        th = np.tanh(g / self.slip)
+        return {"t": self.bound * th, "g": g, "dt_dg": self.bound * (1.0 - th * th) / self.slip}
+
+    def pressure(self) -> np.ndarray:
+        """The contact pressure at each pair's track node now (Pa): the penalty's normal force there over w.
+
+        The force is the penalty term's own (consistent) nodal force, the one the tissue balances, so the
+        friction bound mu p and the interface output's nominal pressure are the same number.
+        """
+        b = dolfinx.fem.petsc.assemble_vector(self._normal)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        force = b.array[2 * self.track]
+        b.destroy()
+        return np.maximum(force, 0.0) / self.weight
+
+    def start(self) -> None:
+        """Forget the fixed point's history (a new load step's solve)."""
+        self._last: np.ndarray | None = None
+        self._omega = 1.0
+
+    def residual(self, u_vec: Any) -> float:
+        """How far the friction forces are from Coulomb's law: the 2-norm over the track of w |mu p - bound| (N)."""
+        return math.sqrt(self.comm.allreduce(float(np.sum(self._gap_forces(u_vec) ** 2))))
+
+    def _gap_forces(self, u_vec: Any) -> np.ndarray:
+        return self.weight * (self.mu * self.pressure() - self.bound)
+
+    def update_bound(self, u_vec: Any) -> float:
+        """One fixed-point update of the bound toward mu times the contact pressure now (collective).
+
+        Returns :meth:`residual` before the update. The update is relaxed by Aitken's factor (Irons and
+        Tuck 1969; Kuettler and Wall, Comput Mech 43:61, 2008), omega_k = -omega_{k-1} r_{k-1} . (r_k -
+        r_{k-1}) / |r_k - r_{k-1}|^2, r the residual forces: a node that opens under a larger bound and
+        closes under a smaller one makes the plain iteration cycle, and a steep pressure-to-bound map
+        makes it diverge.
+        """
+        r = self._gap_forces(u_vec)
+        norm = math.sqrt(self.comm.allreduce(float(np.sum(r * r))))
+        if self._last is not None:
+            dr = r - self._last
+            num, den = self.comm.allreduce(np.array([float(np.sum(self._last * dr)), float(np.sum(dr * dr))]))
+            if den > 0.0:
+                self._omega = float(np.clip(-self._omega * num / den, OMEGA_MIN, OMEGA_MAX))
+        self._last = r
+        self.bound = np.maximum(self.bound + self._omega * r / np.maximum(self.weight, 1e-300), 0.0)
+        return norm
+
+    def potential(self, u_vec: Any) -> float:
+        """Sum of w b s ln cosh(g / s), b the frozen bound: the terms' potential, for the line search (collective)."""
+        values = self._values(u_vec)
+        x = np.abs(values[:, 1] - values[:, 2]) / self.slip
+        log_cosh = x + np.log1p(np.exp(-2.0 * x)) - math.log(2.0)
+        return float(self.comm.allreduce(float(np.sum(self.weight * self.bound * self.slip * log_cosh))))
+
+    def add_residual(self, u_vec: Any, b: Any) -> None:
+        """Add w t to node a's and -w t to node b's axial residual (b: the full residual, assembled; collective)."""
+        law = self.law(self._values(u_vec))
+        f = self.weight * law["t"]
+        rows = self.dofs[:, 1:].ravel()
+        b.setValues(rows.astype(PETSc.IntType), np.stack([f, -f], axis=1).ravel(), addv=PETSc.InsertMode.ADD_VALUES)
+        b.assemble()
+
+    def add_jacobian(self, u_vec: Any, A: Any) -> None:
+        """Add the terms' derivative (symmetric: the bound is frozen) to the full Jacobian A, assembled (collective)."""
+        kg = self.weight * self.law(self._values(u_vec))["dt_dg"]
+        for k in range(self.pairs):
+            az, bz = (int(i) for i in self.dofs[k, 1:])
+            A.setValues([az, bz], [az, bz], [[kg[k], -kg[k]], [-kg[k], kg[k]]], addv=PETSc.InsertMode.ADD_VALUES)
+        A.assemble()
+
+    def extend_pattern(self, A: Any) -> None:
+        """Make room in A, once, for every coupling the terms add (new nonzeros, stored as zeros)."""
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, False)
+        A.setOption(PETSc.Mat.Option.NO_OFF_PROC_ENTRIES, False)
+        for az, bz in self.dofs[:, 1:]:
+            A.setValues([int(az), int(bz)], [int(az), int(bz)], np.zeros((2, 2)), addv=PETSc.InsertMode.ADD_VALUES)
+        A.assemble()
+
+    def status(self, u_vec: Any) -> dict[str, int]:
+        """How many track nodes stick (|g| < 2 s: within the regularisation), slip, and are open now (all ranks)."""
+        values = self._values(u_vec)
+        closed = self.pressure() > 0.0
+        stick = closed & (np.abs(values[:, 1] - values[:, 2]) < 2.0 * self.slip)
+        counts = np.array([stick.sum(), (closed & ~stick).sum(), (~closed).sum()])
+        stick_n, slip_n, open_n = (int(v) for v in self.comm.allreduce(counts))
+        return {"stick_nodes": stick_n, "slip_nodes": slip_n, "open_nodes": open_n}
+
+    def notes(self) -> dict[str, Any]:
+        """The record's numbers: the coefficient, the penalties, the pairs."""
+        return {"friction_coefficient": self.mu, "friction_slip_mm": self.slip / regions.MM,
+                "friction_pairs": int(self.comm.allreduce(self.pairs))}
+
+    def destroy(self) -> None:
+        """Free the scatter and its local vector."""
+        self._scatter.destroy()
+        self._local.destroy()
+
+
+def _nodes(physics: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """V's owned track nodes of the tissue, local thread-surface nodes, and every local node's lumped track area."""
+    V, mesh, tagged = physics.V, physics.mesh, physics.tagged
+    fdim = mesh.topology.dim - 1
+    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
+    n_local = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
+    owned = V.dofmap.index_map.size_local
+    suture = mark_dofs(V, meshmod.region_cells(tagged, regions.SUTURE)).reshape(n_local, -1).any(axis=1)
+    on_track = np.zeros(n_local, dtype=bool)
+    on_track[dolfinx.fem.locate_dofs_topological(V, fdim, meshmod.facets(tagged, Facet.TRACK))] = True
+    track = np.flatnonzero(on_track & ~suture)
+    track = track[track < owned]
+    xy = V.tabulate_dof_coordinates()[:, :2]
+    r_t = tagged.geometry.r_thread * regions.MM
+    thread_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.THREAD)).reshape(n_local, -1).any(axis=1)
+    thread = np.flatnonzero(thread_cells & (np.abs(xy[:, 0] - r_t) < 1e-9 * max(tagged.geometry.z_end, 1.0)))
+    v = ufl.TestFunction(V)
+    x = ufl.SpatialCoordinate(mesh)
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags)
+    b = dolfinx.fem.petsc.assemble_vector(compat.form(2 * math.pi * x[0] * v[1] * ds(int(Facet.TRACK))))
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    weight = b.array[: 2 * owned].reshape(-1, 2)[:, 1].copy()
+    b.destroy()
+    return track, thread, weight
+
+
+def _normal_form(physics: Any, kappa: float) -> Any:
+    """The penalty's radial nodal force on the tissue's track (compiled): int kappa <-u_r> v_r 2 pi r ds_track."""
+    mesh, tagged = physics.mesh, physics.tagged
+    v = ufl.TestFunction(physics.V)
+    x = ufl.SpatialCoordinate(mesh)
+    _, ds = measures(mesh, tagged.cell_tags, tagged.facet_tags, physics.degree)  # the penalty term's quadrature
+    ur = physics.u[0]
+    closed = ufl.conditional(ufl.lt(ur, 0.0), -ur, 0.0)
+    return compat.form(kappa * closed * v[0] * 2 * math.pi * x[0] * ds(int(Facet.TRACK)))
+
+
+def _global_dofs(physics: Any, nodes: np.ndarray, component: int) -> np.ndarray:
+    """Global indices in the state's vector of V's local ``nodes``' ``component`` (0: r, 1: z)."""
+    local = 2 * np.asarray(nodes, dtype=np.int64) + component
+    if physics.u_in_state is not None:
+        local = np.asarray(physics.u_in_state)[local]
+    im = physics.W.dofmap.index_map
+    bs = physics.W.dofmap.index_map_bs
+    blocks = im.local_to_global(np.asarray(local // bs, dtype=np.int32))
+    return np.asarray(blocks, dtype=np.int64) * bs + local % bs
+
+
+def _pairs(physics: Any, track: np.ndarray, thread: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(owned track nodes, 3) global dofs u_r(a), u_z(a), u_z(b) with b the thread node at a's place; their weights."""
+    xy = physics.V.tabulate_dof_coordinates()[:, :2]
+    key = np.round(xy / MATCH_TOLERANCE_M).astype(np.int64)
+    mine = {(int(k[0]), int(k[1])): int(d) for k, d in zip(key[thread], _global_dofs(physics, thread, 1))}
+    faced: dict[tuple[int, int], int] = {}
+    for part in physics.comm.allgather(mine):
+        faced.update(part)
+    partner = np.array([faced.get((int(k[0]), int(k[1])), -1) for k in key[track]], dtype=np.int64)
+    missing = int(physics.comm.allreduce(int(np.count_nonzero(partner < 0))))
+    if missing:
+        raise ValueError(f"{missing} track nodes face no thread node (the track is not split off the thread)")
+    dofs = np.stack([_global_dofs(physics, track, 0), _global_dofs(physics, track, 1), partner], axis=1)
+    return dofs, weight[track]
+
+
+def settle(friction: ThreadFriction, solve_once: Callable[[], tuple[bool, int, str]], state: Callable[[], Any],
+           tolerance: Callable[[], float]) -> tuple[bool, int, str]:
+    """Newton solves, the bound moved toward mu p after each, until Coulomb's law holds to ``tolerance()`` (N).
+
+    ``solve_once()`` is one Newton solve from the current state (converged, iterations, reason); ``state()``
+    the state's vector. Returns the last solve's (converged, reason) with the iterations summed; a bound
+    that has not settled after :data:`FIXED_POINT_SOLVES` solves fails the step (:data:`NOT_SETTLED`), so
+    the load stepping cuts it.
+    """
+    converged, its, reason = solve_once()
+    friction.start()
+    for _ in range(FIXED_POINT_SOLVES):
+        if not converged:
+            return converged, its, reason
+        if friction.update_bound(state()) <= tolerance():
+            return converged, its, reason
+        converged, more, reason = solve_once()
+        its += more
+    return False, its, NOT_SETTLED

@@ -89,7 +89,7 @@ def main() -> int:
     parser.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "results_identity"))
     args = parser.parse_args()
     sets = args.sets if args.sets is not None else DEFAULT_SETS
-    out = Path(args.out)
+    out = Path(args.out).resolve()
     runs = {"base": run(export(args.base), args.scene, sets, out / "base"),
             "this tree": run(ROOT, args.scene, sets, out / "this_tree")}
     a, b = ({k: v for k, v in r["results"].items() if k not in NOT_COMPARED} for r in runs.values())

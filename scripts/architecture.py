@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "suture_fem"
 #: Layers, bottom up; folders (or top-level modules) on one layer do not import each other.
 LAYERS: dict[str, int] = {"support": 0, "scene": 1, "geometry": 2, "physics": 3, "solve": 4, "outputs": 5,
-                          "pipeline": 6, "plots": 6, "studies": 7, "cli": 8}
+                          "model": 6, "plots": 6, "pipeline": 7, "studies": 8, "cli": 9}
 #: Leaf tables every layer may read: they import nothing from the package.
 LEAF_TABLES = {"suture_fem.geometry.regions"}
 
@@ -76,7 +76,8 @@ def draw(png: Path) -> None:
     notes = {"support": "compat, parallel, io, errors, logging", "scene": "schema, load, model (typed Scene)",
              "geometry": "section, gmsh_model, mesh", "physics": "kinematics, materials, forms, effects/, problem",
              "solve": "newton, reduction, guard, stepping, diagnosis", "outputs": "one class per quantity, results",
-             "pipeline": "load_scene, run_scene", "plots": "pyvista / matplotlib",
+             "model": "Model: build once, solve, set", "pipeline": "load_scene, run_scene",
+             "plots": "pyvista / matplotlib",
              "studies": "verification, convergence, sweep, reproduce, maxload, hardcases",
              "cli": "argument parsing and commands", "regions": "the one table of region names and tags"}
     fig = Figure(figsize=(9.5, 8.5))
@@ -84,7 +85,7 @@ def draw(png: Path) -> None:
     for name, (x, y) in pos.items():
         ax.add_patch(FancyBboxPatch((x - 1.15, y - 0.28), 2.3, 0.56, boxstyle="round,pad=0.02",
                                     fc="#eef3fb" if name != "regions" else "#fdf3e1", ec="#36506e"))
-        ax.text(x, y + 0.08, name + "/" if name not in ("pipeline", "plots", "regions") else name + ".py",
+        ax.text(x, y + 0.08, name + "/" if name not in ("model", "pipeline", "plots", "regions") else name + ".py",
                 ha="center", va="center", fontsize=10, weight="bold")
         ax.text(x, y - 0.14, notes[name], ha="center", va="center", fontsize=6.5, color="#333")
     for (a, b), n in sorted(folder_edges().items()):
@@ -93,7 +94,7 @@ def draw(png: Path) -> None:
                                      lw=0.5 + 0.15 * min(n, 10), color="#7a8ea8", alpha=0.8,
                                      connectionstyle="arc3,rad=0.08"))
     ax.set_xlim(-2.2, 7.4)
-    ax.set_ylim(0.3, 9.6)
+    ax.set_ylim(0.3, 10.6)
     ax.axis("off")
     ax.set_title("suture_fem: imports point down the pipeline (arrow: 'imports'; drawn from the code)", fontsize=10)
     fig.tight_layout()

@@ -1,2 +1,51 @@
-"""suture_fem: axisymmetric FE model of a coned suspension suture in facial tissue."""
+"""suture_fem: axisymmetric FE model of a coned suspension suture in facial tissue.
+
+The Python API (docs/api.md)::
+
+    from suture_fem import Model, Scene
+
+    scene = Scene.builtin("paper").with_values({"geometry.cones": 2, "loading.force_n": 1.5})
+    model = Model(scene)          # mesh, physics and outputs, built once
+    results = model.solve()       # the load ramp: typed Results (results.usum_mm, results.at_forces, ...)
+
+* :class:`Scene`: what to simulate (``Scene.builtin``, ``Scene.from_file``, ``Scene.from_values``,
+  ``Scene.of``, ``scene.with_values``), validated (:class:`SceneError`: one line naming the key).
+* :class:`Model`: one scene's mesh, physics and outputs; ``solve``, ``set``, ``u``, ``mesh``.
+* :class:`Results`: what a solve computed; results.json is ``results.to_dict()``.
+* :class:`SolveStopped`: the load ramp stopped with a diagnosis (``cause``, ``load_reached``).
+
+The names are imported when first used, so ``import suture_fem`` (and ``suture-fem --help``) loads
+no dolfinx.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
 __version__ = "0.1.0"
+
+__all__ = ["Model", "Results", "Scene", "SceneError", "SolveStopped", "__version__"]
+
+#: Where each public name lives.
+_HOMES = {
+    "Model": "suture_fem.model",
+    "Results": "suture_fem.outputs.results",
+    "Scene": "suture_fem.scene.model",
+    "SceneError": "suture_fem.support.errors",
+    "SolveStopped": "suture_fem.support.errors",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """A public name, imported from its module when first asked for."""
+    if name not in _HOMES:
+        raise AttributeError(f"module 'suture_fem' has no attribute {name!r}")
+    value = getattr(import_module(_HOMES[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    """The module's names and the public API."""
+    return sorted({*globals(), *__all__})

@@ -5,6 +5,11 @@
 (:meth:`Results.finish`) or stops (:meth:`Results.stop`). :meth:`Results.to_dict` is the JSON form,
 which repeats the last report's entries at top level; a Results also reads like that dict
 (``results["usum_mm"]``, ``results.get("at_forces")``, ``"seqv_pa" in results``), read-only.
+
+Typed, the same answers are attributes: ``results.usum_mm``, ``results.seqv_pa``, ``results.eptoeqv``
+(the last report's), ``results.at_forces`` (one :class:`~suture_fem.outputs.report.Report` per reported
+force), ``results.force_displacement``, ``results.peak("seqv_cd_pa", "tissue")`` (a
+:class:`~suture_fem.outputs.report.Peak`: value and where), ``results.solver`` (:class:`SolverRecord`).
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from typing import Any
 
 from suture_fem import __version__
 from suture_fem.geometry import mesh as meshmod
+from suture_fem.outputs.report import Peak, Report, peak_of
 from suture_fem.physics.problem import Physics
 from suture_fem.scene import Scene
 from suture_fem.support import compat
@@ -94,7 +100,7 @@ class Results(Mapping):
         scene: the scene solved (``Scene.as_dict``).
         force_displacement: [F (N), thread end displacement (mm)] after every converged step, from [0, 0].
         time_history: with inertia, [t (s), F (N), thread end displacement (mm)] after every step.
-        at_forces: the outputs record at every reported force.
+        records: the outputs record at every reported force (``at_forces``: the same, typed).
         latest: the reports' entries but ``force_n``, merged in order (so the last report's values).
         force_reached_n: the force of the last report.
         wall_time_s, timings_s: stamped at every write.
@@ -109,7 +115,7 @@ class Results(Mapping):
     status: str = "running"
     force_displacement: list[list[float]] = field(default_factory=lambda: [[0.0, 0.0]])
     time_history: list[list[float]] | None = None
-    at_forces: list[dict[str, Any]] = field(default_factory=list)
+    records: list[dict[str, Any]] = field(default_factory=list)
     latest: dict[str, Any] = field(default_factory=dict)
     force_reached_n: float | None = None
     wall_time_s: float | None = None
@@ -143,13 +149,13 @@ class Results(Mapping):
 
     def report(self, force_n: float, record: dict[str, Any]) -> None:
         """The outputs record of a reported force."""
-        self.at_forces.append(record)
+        self.records.append(record)
         self.latest.update({k: v for k, v in record.items() if k != "force_n"})
         self.force_reached_n = force_n
 
     def needs_report(self, load_reached_n: float) -> bool:
         """Whether the last converged force of a stopped ramp still lacks its outputs record."""
-        return load_reached_n > 0 and (not self.at_forces or self.at_forces[-1]["force_n"] < load_reached_n)
+        return load_reached_n > 0 and (not self.records or self.records[-1]["force_n"] < load_reached_n)
 
     def finish(self, history: Any) -> None:
         """The ramp reached the full load."""
@@ -176,7 +182,7 @@ class Results(Mapping):
     def to_dict(self) -> dict[str, Any]:
         """The JSON form: the keys and values of results.json."""
         out: dict[str, Any] = {"status": self.status, **self.run, "force_displacement": self.force_displacement,
-                               "at_forces": self.at_forces, "effects": self.effects, "scene": self.scene}
+                               "at_forces": self.records, "effects": self.effects, "scene": self.scene}
         if self.time_history is not None:
             out["time_history"] = self.time_history
         if self.wall_time_s is not None:
@@ -191,6 +197,35 @@ class Results(Mapping):
         if self.error is not None:
             out["error"] = self.error
         return out
+
+    @property
+    def at_forces(self) -> list[Report]:
+        """The outputs at every reported force, in order."""
+        return [Report(record) for record in self.records]
+
+    @property
+    def usum_mm(self) -> float | None:
+        """USUM at the last reported force (mm; None before the first report)."""
+        return self.latest.get("usum_mm")
+
+    @property
+    def seqv_pa(self) -> float | None:
+        """SEQV at the last reported force (Pa; None before the first report or without SEQV)."""
+        return self.latest.get("seqv_pa")
+
+    @property
+    def eptoeqv(self) -> float | None:
+        """EPTOEQV at the last reported force (None before the first report or without EPTOEQV)."""
+        return self.latest.get("eptoeqv")
+
+    @property
+    def regions(self) -> dict[str, Any]:
+        """Each region's measures at the last reported force."""
+        return self.latest.get("regions", {})
+
+    def peak(self, measure: str, region: str | None = None) -> Peak:
+        """The maximum of ``measure`` at the last reported force and where it is (KeyError if not computed)."""
+        return peak_of(self.latest, measure, region)
 
     def __getitem__(self, key: str) -> Any:
         """The JSON form's entry (KeyError where it has none)."""

@@ -22,7 +22,7 @@ from typing import Any
 
 from suture_fem.geometry.regions import REGIONS
 from suture_fem.scene.model import Scene
-from suture_fem.scene.schema import MODEL_PARAMETERS, PETSC_OPTIONS, RULES, TISSUE_MODELS, Rule
+from suture_fem.scene.schema import MODEL_PARAMETERS, PETSC_OPTIONS, RULES, TISSUE_MODELS, Rule, default_values
 from suture_fem.support.errors import SceneError
 
 log = logging.getLogger("suture_fem")
@@ -30,8 +30,7 @@ log = logging.getLogger("suture_fem")
 
 def defaults() -> dict[str, Any]:
     """The default scene (a fresh copy)."""
-    text = resources.files("suture_fem.scene").joinpath("defaults.toml").read_text()
-    return tomllib.loads(text)
+    return default_values()
 
 
 def builtin_names() -> list[str]:

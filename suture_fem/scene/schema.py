@@ -2,16 +2,20 @@
 
 Each section of a scene is a frozen dataclass; each of its fields is one scene key, declared with
 :func:`key` (its :class:`Rule` and unit). Default values and their sources are written beside the
-keys in ``defaults.toml`` (a test checks that the two list the same keys). :data:`RULES` is derived
-from these declarations, so a key's range is stated in exactly one place.
+keys in ``defaults.toml`` (a test checks that the two list the same keys); :func:`section` gives every
+field its default from there, so a section is also built in code with keyword arguments
+(``GeometrySection(cones=2)``: every other key its default, each value checked by its rule).
+:data:`RULES` is derived from these declarations, so a key's range is stated in exactly one place.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping
+import tomllib
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field, fields
-from typing import Any
+from importlib import resources
+from typing import Any, ClassVar
 
 from suture_fem.support.errors import SceneError
 
@@ -106,8 +110,60 @@ def _length(hi: float) -> Rule:
 
 
 def key(rule: Rule, unit: str = "") -> Any:
-    """A scene key: a dataclass field that carries its rule and unit (no default: defaults.toml has it)."""
+    """A scene key: a dataclass field that carries its rule and unit (its default: :func:`section`)."""
     return field(metadata={"rule": rule, "unit": unit})
+
+
+def default_values() -> dict[str, Any]:
+    """Every key's default, as ``defaults.toml`` writes them (a fresh nested mapping)."""
+    return tomllib.loads(resources.files("suture_fem.scene").joinpath("defaults.toml").read_text())
+
+
+def frozen(value: Any) -> Any:
+    """A scene value as a section holds it: lists as tuples, tables as :class:`Params`."""
+    if isinstance(value, list):
+        return tuple(value)
+    if isinstance(value, Mapping) and not isinstance(value, Params):
+        return Params.of(value)
+    return value
+
+
+def plain(value: Any) -> Any:
+    """A section's value as the scene mapping (and results.json) writes it: tuples as lists, Params as dicts."""
+    if isinstance(value, Params):
+        return value.as_dict()
+    if isinstance(value, tuple):
+        return list(value)
+    return value
+
+
+class _Section:
+    """What every section shares: each value checked by its key's rule when the section is built."""
+
+    NAME: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        for f in fields(self):  # type: ignore[arg-type]
+            value = plain(getattr(self, f.name))
+            checked = f.metadata["rule"].check(f"{self.NAME}.{f.name}", value)
+            object.__setattr__(self, f.name, frozen(checked))
+
+    def as_dict(self) -> dict[str, Any]:
+        """The section's table: key -> value, as a scene file writes it."""
+        return {f.name: plain(getattr(self, f.name)) for f in fields(self)}  # type: ignore[arg-type]
+
+
+def section(name: str) -> Callable[[type], type]:
+    """The frozen dataclass of the scene section ``name``, each field's default read from ``defaults.toml``."""
+    table = default_values()[name]
+
+    def build(cls: type) -> type:
+        for f_name, value in table.items():
+            cls.__dict__[f_name].default = frozen(value)
+        cls.NAME = name
+        return dataclass(frozen=True)(cls)
+
+    return build
 
 
 @dataclass(frozen=True)
@@ -143,8 +199,8 @@ _VOLUMETRIC = _pos(1e15, lo_open=False)  # 1/d may be 0 (incompressible limit ha
 MM, N, PA, S = "mm", "N", "Pa", "s"
 
 
-@dataclass(frozen=True)
-class GeometrySection:
+@section("geometry")
+class GeometrySection(_Section):
     """``[geometry]``: the suture and the tissue cylinder (lengths in mm)."""
 
     cones: int = key(Rule("int", lo=0, hi=64))
@@ -165,8 +221,8 @@ class GeometrySection:
     margin_far_mm: float = key(_length(1000.0), MM)
 
 
-@dataclass(frozen=True)
-class MeshSection:
+@section("mesh")
+class MeshSection(_Section):
     """``[mesh]``: element sizes at refinement 0 and the Lagrange degree."""
 
     refinement: int = key(Rule("int", lo=0, hi=6))
@@ -179,8 +235,8 @@ class MeshSection:
     geometry_degree: int = key(Rule("int", lo=1, hi=2))
 
 
-@dataclass(frozen=True)
-class LoadingSection:
+@section("loading")
+class LoadingSection(_Section):
     """``[loading]``: the pull force, where it is reported, and its time course."""
 
     force_n: float = key(_pos(1000.0), N)
@@ -190,8 +246,8 @@ class LoadingSection:
     hold_s: float = key(_pos(1e6, lo_open=False), S)
 
 
-@dataclass(frozen=True)
-class SolverSection:
+@section("solver")
+class SolverSection(_Section):
     """``[solver]``: load stepping, Newton tolerances, linear solver."""
 
     initial_step: float = key(_pos(1.0))
@@ -208,8 +264,8 @@ class SolverSection:
     gent_limit_fraction: float = key(Rule("float", lo=0.0, hi=1.0, lo_open=True))
 
 
-@dataclass(frozen=True)
-class OutputSection:
+@section("output")
+class OutputSection(_Section):
     """``[output]``: which quantities, fields and measures are computed."""
 
     fields: bool = key(Rule("bool"))
@@ -223,8 +279,8 @@ class OutputSection:
 TRACK_INTERFACES = ("sliding", "frictionless", "coulomb")
 
 
-@dataclass(frozen=True)
-class EffectsSection:
+@section("effects")
+class EffectsSection(_Section):
     """``[effects]``: the physics a scene calls for, and the constants of each effect."""
 
     inertia: bool = key(Rule("bool"))

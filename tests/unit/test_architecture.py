@@ -2,7 +2,7 @@
 
 The layers, bottom up (docs/architecture.md; the table is scripts/architecture.py's, which draws
 docs/architecture.png from the same imports): support < scene < geometry < physics < solve < outputs
-< pipeline, plots < studies < cli. A module may import its own folder and any lower layer, never a
+< model, plots < pipeline < studies < cli. A module may import its own folder and any lower layer, never a
 higher one. ``geometry.regions`` is the one table of region names and tags: it imports nothing from
 the package, so every layer may read it (the scene names its material regions from it).
 """

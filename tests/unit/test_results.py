@@ -7,6 +7,7 @@ from types import SimpleNamespace
 
 from mpi4py import MPI
 
+from suture_fem.outputs.report import Peak
 from suture_fem.outputs.results import Diagnosis, Results
 from suture_fem.support.errors import SolveStopped
 
@@ -65,3 +66,22 @@ def test_a_stop_is_diagnosed_and_asks_for_the_last_converged_state():
     assert d["status"] == "stopped" and d["load_steps"] == 2
     assert d["diagnosis"] == {"cause": "cutbacks", "load_reached_n": 0.7, "attempted_n": 0.8, "detail": "why"}
     assert res.diagnosis == Diagnosis("cutbacks", 0.7, 0.8, "why")
+
+
+def test_the_typed_view_reads_the_same_values_as_the_json_form():
+    res = running()
+    assert res.usum_mm is None and res.at_forces == []
+    record = {"force_n": 1.0, "usum_mm": 2.0, "usum_mm_at_mm": [0.1, 9.5], "usum_mm_region": "suture",
+              "seqv_pa": 3.0, "eptoeqv": 0.4, "thread_end_displacement_mm": 1.9,
+              "regions": {"tissue": {"seqv_pa": 1.5, "seqv_pa_at_mm": [0.2, 4.0]}}}
+    res.step(1.0, 1.9)
+    res.report(1.0, record)
+    (report,) = res.at_forces
+    assert (report.force_n, report.usum_mm, report.seqv_pa, report.eptoeqv) == (1.0, 2.0, 3.0, 0.4)
+    assert report == res.to_dict()["at_forces"][0] and report["regions"] is record["regions"]
+    assert report.thread_end_displacement_mm == 1.9
+    assert report.peak("usum_mm") == Peak(2.0, (0.1, 9.5), "suture")
+    assert res.peak("seqv_pa", "tissue") == Peak(1.5, (0.2, 4.0), "tissue")
+    assert (res.usum_mm, res.seqv_pa, res.eptoeqv) == (2.0, 3.0, 0.4) and res["usum_mm"] == res.usum_mm
+    assert res.force_displacement == res.to_dict()["force_displacement"] == [[0.0, 0.0], [1.0, 1.9]]
+    assert res.regions == record["regions"]

@@ -1,0 +1,206 @@
+"""The model of one scene as an object: mesh, physics and outputs built once, solved as often as asked.
+
+    from suture_fem import Model, Scene
+
+    model = Model(Scene.builtin("paper").with_values({"mesh.degree": 1, "loading.force_n": 1.0}))
+    results = model.solve()                         # the load ramp; typed Results
+    results.usum_mm, results.at_forces[-1].seqv_pa  # the answer; model.u, model.mesh: the solved state
+    model.set({"materials.tissue_scale": 1.2})      # a new Constant value: no new mesh, no new form
+    stiffer = model.solve()                         # from rest again, on the same mesh and forms
+
+:class:`Model` checks the scene (the checks that need the geometry and the mesh's size, before any
+meshing), then meshes and builds the physics and the outputs once. :meth:`Model.solve` runs the load
+ramp from rest exactly as ``suture-fem run`` does (:func:`suture_fem.pipeline.run_scene` is this),
+writing results.json when given a folder. :meth:`Model.set` changes the keys that are dolfinx Constants
+of the forms (every material constant, ``materials.tissue_scale``, ``loading.force_scale``) and the
+ramp's ``loading.force_n`` and ``loading.report_forces_n``; any other key needs a new mesh or new forms
+and is refused in one line.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry.estimate import check_fits
+from suture_fem.geometry.section import Geometry
+from suture_fem.outputs.evaluate import Outputs
+from suture_fem.outputs.results import Results
+from suture_fem.outputs.steps import Clock, LoadSteps, OnReport, output_folder
+from suture_fem.physics.effects import check_scene
+from suture_fem.physics.problem import Physics, build_physics
+from suture_fem.scene import Scene
+from suture_fem.solve.records import Timings
+from suture_fem.solve.stepping import ramp
+from suture_fem.support.errors import SceneError, SolveStopped, StopCause
+
+log = logging.getLogger("suture_fem")
+
+#: The keys the load ramp reads from the scene when it starts (no Constant, no form).
+RAMP_KEYS = ("loading.force_n", "loading.report_forces_n")
+
+
+def check(scene: Scene) -> None:
+    """The checks that need the geometry (cones that fit), the effects and the mesh's size (SceneError).
+
+    The mesh's size is estimated before gmsh runs: a scene whose solve cannot fit in this machine's
+    memory is refused in one line instead of meshing for minutes.
+    """
+    geometry = Geometry.from_section(scene.geometry)
+    if scene.mesh.geometry_degree == 2 and scene.mesh.degree != 2:
+        raise SceneError("scene key mesh.geometry_degree = 2 (quadratic cells) needs mesh.degree = 2 (isoparametric), "
+                         f"got mesh.degree = {scene.mesh.degree} (reproduce's P1 mesh rungs and convergence's "
+                         "degree-1 rungs set it: use --mesh scene, or --degrees 2)")
+    check_scene(scene)
+    log.info("mesh estimate: %s", check_fits(geometry, scene.mesh).describe())
+
+
+def _check_axial_support(scene: Scene) -> None:
+    """Stop with a diagnosis when nothing can hold the pull: a thread in its own track (sliding, unilateral), no cone.
+
+    A Coulomb thread cannot hold it either: nothing presses the tissue onto the thread before the cones do.
+    """
+    if scene.effects.thread_track and scene.geometry.cones == 0:
+        first = scene.loading.force_n * scene.solver.initial_step
+        raise SolveStopped(StopCause.NO_AXIAL_SUPPORT, 0.0, first,
+                           f'effects.thread_interface = "{scene.effects.thread_interface}" with geometry.cones = 0: a '
+                           "thread in its own track passes no axial force to the tissue without a cone (frictionless "
+                           "it cannot; with friction nothing presses the tissue onto it before a cone does), so no "
+                           "state balances a pull")
+
+
+def _build(scene: Scene, comm: Any, clock: Clock) -> Outputs:
+    """Mesh, physics and the outputs of the scene (the physics is ``outputs.physics``), timed."""
+    t0 = time.perf_counter()
+    tagged = meshmod.scene_mesh(comm, scene)
+    clock.meshing = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    physics = build_physics(tagged, scene)
+    outputs = Outputs(physics, scene.output, quantities=physics.effects.quantities)
+    clock.timings.form_compilation += time.perf_counter() - t0
+    return outputs
+
+
+class Model:
+    """One scene's mesh, physics and outputs, built once (collective over ``comm``); solved by :meth:`solve`.
+
+    Attributes:
+        scene: the scene solved (:meth:`set` replaces it with the new values).
+        comm: the MPI communicator the mesh is distributed over.
+        outputs: the outputs of the scene (``outputs.cell_maxima()``: stress and strain per cell).
+        results: the Results of the last :meth:`solve` (None before it).
+    """
+
+    def __init__(self, scene: Scene, comm: Any = None, *, checked: bool = False):
+        """Check the scene, mesh it and build its physics and outputs (``comm``: MPI.COMM_WORLD when None).
+
+        ``checked``: the scene has passed :func:`check` already (``load_scene``), so it is not checked again.
+        """
+        if comm is None:
+            from mpi4py import MPI
+
+            comm = MPI.COMM_WORLD
+        if not checked:
+            check(scene)
+        self.scene, self.comm = scene, comm
+        self._clock = Clock()
+        self.outputs = _build(scene, comm, self._clock)
+        self.results: Results | None = None
+        self._solves = 0
+        self._built = {key: float(c.value) for key, c in self.physics.parameters.items()}
+
+    @property
+    def physics(self) -> Physics:
+        """The discrete problem: forms, unknowns, boundary conditions, the parameters' Constants."""
+        return self.outputs.physics
+
+    @property
+    def mesh(self) -> Any:
+        """The dolfinx mesh."""
+        return self.physics.mesh
+
+    @property
+    def u(self) -> Any:
+        """The displacement (a dolfinx Function, m): the solved state after :meth:`solve`."""
+        return self.physics.u
+
+    def solve(self, out_dir: str | Path | None = None, on_report: OnReport | None = None) -> Results:
+        """Follow the load ramp from rest; return the Results (and write ``out_dir/results.json``, if given).
+
+        Every call starts from rest at the model's current values. ``on_report(force_n, outputs)``
+        (on every rank, at each reported force) is kept for the callers that still use it; the
+        solved state is ``model.u`` and ``model.outputs`` once solve returns. Raises SolveStopped
+        after writing the converged part when the ramp cannot be completed (``model.results`` has it).
+        """
+        clock = self._clock if self._solves == 0 else Clock(meshing=self._clock.meshing, timings=Timings())
+        self._solves += 1
+        out = output_folder(out_dir, self.comm)
+        self._at_rest()
+        steps = LoadSteps(self.scene, self.outputs, out, clock, on_report)
+        self.results = steps.results
+        try:
+            _check_axial_support(self.scene)
+            steps.open_fields()
+            history = ramp(self.physics, self.scene, steps.converged, clock.timings, with_solver=True)
+            steps.close()
+        except BaseException as exc:
+            steps.ended(exc)
+            raise
+        steps.finished(history)
+        return steps.results
+
+    def _at_rest(self) -> None:
+        """The state and loads of a freshly built physics: zero displacement, no pull, no weight."""
+        physics = self.physics
+        physics.state.x.array[:] = 0.0
+        physics.sync()
+        physics.traction.value = 0.0
+        if physics.gravity_factor is not None:
+            physics.gravity_factor.value = 0.0
+        if physics.rigid_displacement is not None:
+            physics.rigid_displacement.value = 0.0
+        if physics.friction is not None:  # no contact pressure yet: no slip bound
+            physics.friction.bound[:] = 0.0
+
+    def settable(self) -> list[str]:
+        """The scene keys :meth:`set` can change on this model (no new mesh, no new form)."""
+        return sorted(k for k in (*self.physics.parameters, *RAMP_KEYS) if self._why_not(k, 1.0) is None)
+
+    def set(self, values: Mapping[str, Any]) -> Model:
+        """Set dotted scene keys that need no new mesh and no new form; the next :meth:`solve` uses them.
+
+        ``model.set({"materials.tissue_scale": 1.2, "loading.force_n": 2.0})``: the values are validated
+        like a scene file's, then the Constants are set in place and ``model.scene`` is the new scene.
+        A key that needs a new mesh or new forms is refused in one line (SceneError); build
+        ``Model(model.scene.with_values({...}))`` for it. Returns the model.
+        """
+        scene = self.scene.with_values(dict(values))
+        for key in values:
+            why = self._why_not(key, scene.get(key))
+            if why is not None:
+                raise SceneError(f"scene key {key} cannot change on a built Model: {why}; build "
+                                 f"Model(model.scene.with_values({{{key!r}: ...}})) instead")
+        for key in values:
+            if key in self.physics.parameters:
+                self.physics.set_parameter(key, float(scene.get(key)))
+        self.scene = scene
+        return self
+
+    def _why_not(self, key: str, new: Any) -> str | None:
+        """Why ``key`` cannot be set on this model (None: it can)."""
+        if key.startswith(("geometry.", "mesh.")):
+            return "it changes the mesh"
+        if key in RAMP_KEYS:
+            return None
+        if key not in self._built:
+            return "it is not a Constant of the forms (it changes what is built)"
+        if self._built[key] == 0.0 and float(new) != 0.0:
+            return "its term was left out of the forms, built at 0"
+        if self.physics.effects.unilateral_thread and (key == "materials.tissue_scale"
+                                                       or key.startswith("materials.hypodermis.")):
+            return "the contact penalty's stiffness is built from it"
+        return None

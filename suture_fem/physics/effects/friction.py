@@ -70,9 +70,10 @@ class ThreadFriction:
     """Coulomb friction's nodal terms on a split thread track (see the module docstring).
 
     Attributes:
-        mu: the friction coefficient; kappa: the normal and tangential penalty stiffness (Pa/m).
+        mu: the friction coefficient; kappa: the normal penalty's stiffness (Pa/m); slip: s (m).
         pairs: owned track nodes on this rank; dofs: (pairs, 3) global dofs (u_r(a), u_z(a), u_z(b));
-        weight: (pairs,) each node's 2 pi r-weighted lumped track area (m^2).
+        track: their nodes in V; weight: (pairs,) each one's 2 pi r-weighted lumped track area (m^2);
+        bound: (pairs,) the frozen slip limit b (Pa).
     """
 
     def __init__(self, physics: Any, mu: float, kappa: float, slip_m: float):

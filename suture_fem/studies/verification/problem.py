@@ -257,7 +257,7 @@ def newton_options(max_iterations: int = 30, step_tol: float = 1e-11) -> SolverS
     relative and absolute residual tests are off (0). Only the Newton fields are read; the stepping
     fields are those of a single step.
     """
-    return SolverSection(
+    return SolverSection.internal(
         initial_step=1.0, min_step=1.0, max_step=1.0, grow=1.0, easy_iterations=max_iterations,
         max_iterations=max_iterations, rtol=0.0, atol=0.0, linear_solver="mumps",
         petsc_options=Params.of({"snes_linesearch_type": "basic", "snes_stol": step_tol}), gent_limit_fraction=1.0,

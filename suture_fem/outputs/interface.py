@@ -138,7 +138,7 @@ class Interface(Quantity):
         if physics.friction is not None:  # how many track nodes stick, slip, are open; the law's residual
             state = compat.function_vector(physics.state)
             law = physics.friction
-            friction = {"friction": {**law.status(state), "coulomb_residual_n": law.residual(state)}}
+            friction = {"friction": {**law.status(state), "coulomb_residual_n": law.residual()}}
         return {
             "load_share_n": {name: float(v) for name, v in zip(self.names, shares)},
             "load_share_total_n": total,

@@ -276,8 +276,7 @@ class NewtonSolver(Linearised):
         """
         if self.friction is None:
             return self._solve_once()
-        return settle(self.friction, self._solve_once, lambda: compat.function_vector(self.physics.state),
-                      lambda: max(self.options.atol, self.floor))
+        return settle(self.friction, self._solve_once, lambda: max(self.options.atol, self.floor))
 
     def _solve_once(self) -> tuple[bool, int, str]:
         """One SNES solve from the current state (see :meth:`solve`)."""

@@ -69,29 +69,37 @@ MATCH_TOLERANCE_M = 1e-12
 class ThreadFriction:
     """Coulomb friction's nodal terms on a split thread track (see the module docstring).
 
+    Built from arrays, so the same terms serve a scene's thread (:meth:`of_physics`) and a rigid surface
+    (a verification's plug: one dof per pair, the surface's axial displacement in ``surface``).
+
     Attributes:
-        mu: the friction coefficient; kappa: the normal penalty's stiffness (Pa/m); slip: s (m).
-        pairs: owned track nodes on this rank; dofs: (pairs, 3) global dofs (u_r(a), u_z(a), u_z(b));
-        track: their nodes in V; weight: (pairs,) each one's 2 pi r-weighted lumped track area (m^2);
-        bound: (pairs,) the frozen slip limit b (Pa).
+        mu: the friction coefficient; slip: s (m); pairs: the track nodes owned on this rank.
+        dofs: (pairs, 2) global dofs (u_z(a), u_z(b)), or (pairs, 1) (u_z(a)) against a rigid surface.
+        track: the nodes a in the normal force's vector; weight: (pairs,) their 2 pi r-weighted lumped
+        track area (m^2); bound: (pairs,) the frozen slip limit b (Pa); surface: a rigid surface's u_z (m).
     """
 
-    def __init__(self, physics: Any, mu: float, kappa: float, slip_m: float):
-        """Pair the tissue's owned track nodes with the thread's surface nodes and build their scatter."""
-        self.mu, self.kappa, self.slip = float(mu), float(kappa), float(slip_m)
-        self.comm = physics.comm
-        track, thread, weight = _nodes(physics)
-        self.dofs, self.weight = _pairs(physics, track, thread, weight)
-        self.track = track
-        self._normal = _normal_form(physics, kappa)
-        self.pairs = len(self.weight)
-        self.bound = np.zeros(self.pairs)  # mu p_bound (Pa): the frozen slip limit of each pair
+    def __init__(self, comm: Any, state: Any, dofs: np.ndarray, weight: np.ndarray, track: np.ndarray, normal: Any,
+                 mu: float, slip_m: float):
+        """``state``: the state's PETSc vector; ``normal``: the compiled form of the penalty's nodal force."""
+        self.comm, self.mu, self.slip = comm, float(mu), float(slip_m)
+        self.dofs, self.weight, self.track, self._normal = dofs, weight, track, normal
+        self.pairs = len(weight)
+        self.surface = 0.0
+        self.bound = np.zeros(self.pairs)
         self.start()
-        state = compat.function_vector(physics.state)
-        self._local = PETSc.Vec().createSeq(3 * self.pairs, comm=PETSc.COMM_SELF)
-        index = PETSc.IS().createGeneral(self.dofs.ravel().astype(PETSc.IntType), comm=PETSc.COMM_SELF)
+        self._local = PETSc.Vec().createSeq(dofs.size, comm=PETSc.COMM_SELF)
+        index = PETSc.IS().createGeneral(dofs.ravel().astype(PETSc.IntType), comm=PETSc.COMM_SELF)
         self._scatter = PETSc.Scatter().create(state, index, self._local, None)
         index.destroy()
+
+    @classmethod
+    def of_physics(cls, physics: Any, mu: float, kappa: float, slip_m: float) -> ThreadFriction:
+        """A scene's: the tissue's owned track nodes paired with the thread's surface nodes they faced."""
+        track, thread, weight = _nodes(physics)
+        dofs, weight = _pairs(physics, track, thread, weight)
+        return cls(physics.comm, compat.function_vector(physics.state), dofs, weight, track,
+                   _normal_form(physics, kappa), mu, slip_m)
 
     @classmethod
     def on(cls, physics: Any, section: Any, kappa: float) -> ThreadFriction:
@@ -99,20 +107,20 @@ class ThreadFriction:
 
         ``section``: the scene's ``[effects]`` (``friction_coefficient``, ``friction_slip_mm``).
         """
-        friction = cls(physics, section.friction_coefficient, kappa, section.friction_slip_mm * regions.MM)
+        friction = cls.of_physics(physics, section.friction_coefficient, kappa, section.friction_slip_mm * regions.MM)
         physics.notes.setdefault("interfaces", {}).update(friction.notes())
         return friction
 
-    def _values(self, u_vec: Any) -> np.ndarray:
-        """(pairs, 3): u_r(a), u_z(a), u_z(b) at the state vector ``u_vec`` (collective)."""
+    def _slips(self, u_vec: Any) -> np.ndarray:
+        """G = u_z(a) - u_z(b) (or - the surface's u_z) per pair at the state vector ``u_vec`` (m; collective)."""
         self._scatter.scatter(u_vec, self._local, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        return self._local.getArray(readonly=True).reshape(-1, 3).copy()
+        values = self._local.getArray(readonly=True).reshape(self.pairs, -1)
+        return values[:, 0] - (values[:, 1] if values.shape[1] > 1 else self.surface)
 
-    def law(self, values: np.ndarray) -> dict[str, np.ndarray]:
-        """Traction t (Pa, on the tissue's node against its slip) at the frozen bound, and its slip derivative."""
-        g = values[:, 1] - values[:, 2]
+    def law(self, g: np.ndarray) -> dict[str, np.ndarray]:
+        """Traction t (Pa, on the tissue's node against its slip g) at the frozen bound, and its slip derivative."""
         th = np.tanh(g / self.slip)
-        return {"t": self.bound * th, "g": g, "dt_dg": self.bound * (1.0 - th * th) / self.slip}
+        return {"t": self.bound * th, "dt_dg": self.bound * (1.0 - th * th) / self.slip}
 
     def pressure(self) -> np.ndarray:
         """The contact pressure at each pair's track node now (Pa): the penalty's normal force there over w.
@@ -131,14 +139,14 @@ class ThreadFriction:
         self._last: np.ndarray | None = None
         self._omega = 1.0
 
-    def residual(self, u_vec: Any) -> float:
+    def residual(self) -> float:
         """How far the friction forces are from Coulomb's law: the 2-norm over the track of w |mu p - bound| (N)."""
-        return math.sqrt(self.comm.allreduce(float(np.sum(self._gap_forces(u_vec) ** 2))))
+        return math.sqrt(self.comm.allreduce(float(np.sum(self._gap_forces() ** 2))))
 
-    def _gap_forces(self, u_vec: Any) -> np.ndarray:
+    def _gap_forces(self) -> np.ndarray:
         return self.weight * (self.mu * self.pressure() - self.bound)
 
-    def update_bound(self, u_vec: Any) -> float:
+    def update_bound(self) -> float:
         """One fixed-point update of the bound toward mu times the contact pressure now (collective).
 
         Returns :meth:`residual` before the update. The update is relaxed by Aitken's factor (Irons and
@@ -147,7 +155,7 @@ class ThreadFriction:
         closes under a smaller one makes the plain iteration cycle, and a steep pressure-to-bound map
         makes it diverge.
         """
-        r = self._gap_forces(u_vec)
+        r = self._gap_forces()
         norm = math.sqrt(self.comm.allreduce(float(np.sum(r * r))))
         if self._last is not None:
             dr = r - self._last
@@ -160,25 +168,29 @@ class ThreadFriction:
 
     def potential(self, u_vec: Any) -> float:
         """Sum of w b s ln cosh(g / s), b the frozen bound: the terms' potential, for the line search (collective)."""
-        values = self._values(u_vec)
-        x = np.abs(values[:, 1] - values[:, 2]) / self.slip
+        x = np.abs(self._slips(u_vec)) / self.slip
         log_cosh = x + np.log1p(np.exp(-2.0 * x)) - math.log(2.0)
         return float(self.comm.allreduce(float(np.sum(self.weight * self.bound * self.slip * log_cosh))))
 
+    def forces(self, u_vec: Any) -> np.ndarray:
+        """W t per pair (N): the axial friction force the tissue's node resists its slip with (collective)."""
+        return self.weight * self.law(self._slips(u_vec))["t"]
+
     def add_residual(self, u_vec: Any, b: Any) -> None:
         """Add w t to node a's and -w t to node b's axial residual (b: the full residual, assembled; collective)."""
-        law = self.law(self._values(u_vec))
-        f = self.weight * law["t"]
-        rows = self.dofs[:, 1:].ravel()
-        b.setValues(rows.astype(PETSc.IntType), np.stack([f, -f], axis=1).ravel(), addv=PETSc.InsertMode.ADD_VALUES)
+        f = self.forces(u_vec)
+        values = np.stack([f, -f], axis=1)[:, : self.dofs.shape[1]]
+        b.setValues(self.dofs.ravel().astype(PETSc.IntType), values.ravel(), addv=PETSc.InsertMode.ADD_VALUES)
         b.assemble()
 
     def add_jacobian(self, u_vec: Any, A: Any) -> None:
         """Add the terms' derivative (symmetric: the bound is frozen) to the full Jacobian A, assembled (collective)."""
-        kg = self.weight * self.law(self._values(u_vec))["dt_dg"]
+        kg = self.weight * self.law(self._slips(u_vec))["dt_dg"]
+        n = self.dofs.shape[1]
         for k in range(self.pairs):
-            az, bz = (int(i) for i in self.dofs[k, 1:])
-            A.setValues([az, bz], [az, bz], [[kg[k], -kg[k]], [-kg[k], kg[k]]], addv=PETSc.InsertMode.ADD_VALUES)
+            block = (kg[k] * np.array([[1.0, -1.0], [-1.0, 1.0]]))[:n, :n]
+            rows = [int(i) for i in self.dofs[k]]
+            A.setValues(rows, rows, block, addv=PETSc.InsertMode.ADD_VALUES)
         A.assemble()
 
     def extend_pattern(self, A: Any) -> None:
@@ -186,15 +198,16 @@ class ThreadFriction:
         A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         A.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, False)
         A.setOption(PETSc.Mat.Option.NO_OFF_PROC_ENTRIES, False)
-        for az, bz in self.dofs[:, 1:]:
-            A.setValues([int(az), int(bz)], [int(az), int(bz)], np.zeros((2, 2)), addv=PETSc.InsertMode.ADD_VALUES)
+        n = self.dofs.shape[1]
+        for row in self.dofs:
+            rows = [int(i) for i in row]
+            A.setValues(rows, rows, np.zeros((n, n)), addv=PETSc.InsertMode.ADD_VALUES)
         A.assemble()
 
     def status(self, u_vec: Any) -> dict[str, int]:
         """How many track nodes stick (|g| < 2 s: within the regularisation), slip, and are open now (all ranks)."""
-        values = self._values(u_vec)
         closed = self.pressure() > 0.0
-        stick = closed & (np.abs(values[:, 1] - values[:, 2]) < 2.0 * self.slip)
+        stick = closed & (np.abs(self._slips(u_vec)) < 2.0 * self.slip)
         counts = np.array([stick.sum(), (closed & ~stick).sum(), (~closed).sum()])
         stick_n, slip_n, open_n = (int(v) for v in self.comm.allreduce(counts))
         return {"stick_nodes": stick_n, "slip_nodes": slip_n, "open_nodes": open_n}
@@ -259,7 +272,7 @@ def _global_dofs(physics: Any, nodes: np.ndarray, component: int) -> np.ndarray:
 
 
 def _pairs(physics: Any, track: np.ndarray, thread: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(owned track nodes, 3) global dofs u_r(a), u_z(a), u_z(b) with b the thread node at a's place; their weights."""
+    """(owned track nodes, 2) global dofs u_z(a), u_z(b), b the thread node at a's place; their weights."""
     xy = physics.V.tabulate_dof_coordinates()[:, :2]
     key = np.round(xy / MATCH_TOLERANCE_M).astype(np.int64)
     mine = {(int(k[0]), int(k[1])): int(d) for k, d in zip(key[thread], _global_dofs(physics, thread, 1))}
@@ -270,25 +283,24 @@ def _pairs(physics: Any, track: np.ndarray, thread: np.ndarray, weight: np.ndarr
     missing = int(physics.comm.allreduce(int(np.count_nonzero(partner < 0))))
     if missing:
         raise ValueError(f"{missing} track nodes face no thread node (the track is not split off the thread)")
-    dofs = np.stack([_global_dofs(physics, track, 0), _global_dofs(physics, track, 1), partner], axis=1)
+    dofs = np.stack([_global_dofs(physics, track, 1), partner], axis=1)
     return dofs, weight[track]
 
 
-def settle(friction: ThreadFriction, solve_once: Callable[[], tuple[bool, int, str]], state: Callable[[], Any],
+def settle(friction: ThreadFriction, solve_once: Callable[[], tuple[bool, int, str]],
            tolerance: Callable[[], float]) -> tuple[bool, int, str]:
     """Newton solves, the bound moved toward mu p after each, until Coulomb's law holds to ``tolerance()`` (N).
 
-    ``solve_once()`` is one Newton solve from the current state (converged, iterations, reason); ``state()``
-    the state's vector. Returns the last solve's (converged, reason) with the iterations summed; a bound
-    that has not settled after :data:`FIXED_POINT_SOLVES` solves fails the step (:data:`NOT_SETTLED`), so
-    the load stepping cuts it.
+    ``solve_once()`` is one Newton solve from the current state (converged, iterations, reason). Returns
+    the last solve's (converged, reason) with the iterations summed; a bound that has not settled after
+    :data:`FIXED_POINT_SOLVES` solves fails the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
     """
     converged, its, reason = solve_once()
     friction.start()
     for _ in range(FIXED_POINT_SOLVES):
         if not converged:
             return converged, its, reason
-        if friction.update_bound(state()) <= tolerance():
+        if friction.update_bound() <= tolerance():
             return converged, its, reason
         converged, more, reason = solve_once()
         its += more

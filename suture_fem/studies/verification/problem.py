@@ -174,7 +174,7 @@ class Problem:
 
 def build(mesh: Any, cell_tags: Any, material_of_tag: dict[int, Material], degree: int,
           load: Callable[[Any, Any, Any], Any] | None, dirichlet: list[tuple[Any, Any, Any]],
-          formulation: str = "displacement") -> Problem:
+          formulation: str = "displacement", potential: Callable[[FormContext], Any] | None = None) -> Problem:
     """The production weak form on a verification mesh (see the module docstring).
 
     Args:
@@ -187,6 +187,7 @@ def build(mesh: Any, cell_tags: Any, material_of_tag: dict[int, Material], degre
         dirichlet: (where, component or None, value) with ``where`` a boundary marker on (r, z), and
             ``value`` a callable of the dof coordinates (whole vector) or a number (one component).
         formulation: ``effects.incompressibility``: "displacement" or "mixed".
+        potential: ``potential(ctx)`` -> a UFL energy added to the potential (a contact penalty), or None.
     """
     effects = Effects(incompressibility=formulation)
     if effects.mixed:
@@ -200,6 +201,8 @@ def build(mesh: Any, cell_tags: Any, material_of_tag: dict[int, Material], degre
     elastic_terms(ctx, effects, terms)
     if load is not None:
         terms.residual["load"] = -load(ctx.v, ctx.x, ctx.weight)
+    if potential is not None:
+        terms.potential["extra"] = potential(ctx)
     residual, jacobian = terms.residual_and_jacobian(ctx)  # as build_physics does
     bcs = [_dirichlet_bc(mesh, W_u, effects.mixed, *condition) for condition in dirichlet]
     return Problem(mesh=mesh, W=W, W_u=W_u, state=state, u=ctx.u, p=ctx.p, x=ctx.x, cell_tags=cell_tags,

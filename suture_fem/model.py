@@ -41,7 +41,7 @@ from suture_fem.support.errors import SceneError, SolveStopped, StopCause
 log = logging.getLogger("suture_fem")
 
 #: The keys the load ramp reads from the scene when it starts (no Constant, no form).
-RAMP_KEYS = ("loading.force_n", "loading.report_forces_n")
+RAMP_KEYS = ("loading.force_n", "loading.report_forces_n", "loading.displacement_mm", "loading.report_displacements_mm")
 
 
 def check(scene: Scene) -> None:
@@ -63,8 +63,9 @@ def _check_axial_support(scene: Scene) -> None:
     """Stop with a diagnosis when nothing can hold the pull: a thread in its own track (sliding, unilateral), no cone.
 
     A Coulomb thread cannot hold it either: nothing presses the tissue onto the thread before the cones do.
+    Under displacement control the end simply takes no force (its reaction is reported).
     """
-    if scene.effects.thread_track and scene.geometry.cones == 0:
+    if scene.effects.thread_track and scene.geometry.cones == 0 and scene.loading.control == "force":
         first = scene.loading.force_n * scene.solver.initial_step
         raise SolveStopped(StopCause.NO_AXIAL_SUPPORT, 0.0, first,
                            f'effects.thread_interface = "{scene.effects.thread_interface}" with geometry.cones = 0: a '
@@ -165,6 +166,8 @@ class Model:
             physics.rigid_displacement.value = 0.0
         if physics.friction is not None:  # no contact pressure yet: no slip bound
             physics.friction.bound[:] = 0.0
+        if physics.control is not None:
+            physics.control.set(0.0)
 
     def settable(self) -> list[str]:
         """The scene keys :meth:`set` can change on this model (no new mesh, no new form)."""

@@ -134,7 +134,8 @@ class Results(Mapping):
             "dofs": physics.num_dofs(),
             "unknowns": physics.num_unknowns(),
             **meshmod.describe(physics.tagged),
-            "applied_force_n": scene.loading.force_n,
+            **({"applied_force_n": scene.loading.force_n} if scene.loading.control == "force" else
+               {"control": "displacement", "applied_displacement_mm": scene.loading.displacement_mm}),
             "process": this_process(),  # pid, host, start: a reader can tell a dead "running" from a live one
         }
         return cls(run=run, effects=physics.effects_record(), scene=scene.as_dict())

@@ -44,16 +44,15 @@ from petsc4py import PETSc
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.regions import REGION_TAGS, REGIONS
-from suture_fem.physics import constraints as cons
 from suture_fem.physics import kinematics
-from suture_fem.physics.constraints import Unknowns, classify_dofs, pinned_pressure, rigid_suture, supports
+from suture_fem.physics.boundary import DisplacementControl, scene_constraints
+from suture_fem.physics.constraints import Unknowns
 from suture_fem.physics.effects import (
     Dynamics,
     Effects,
     elastic_terms,
     gravity_notes,
     gravity_term,
-    rigid_notes,
     strain_energy,
 )
 from suture_fem.physics.effects.contact import contact_term, penalty_stiffness
@@ -80,6 +79,7 @@ class Physics:
         tissue_residual: the residual over the tissue's cells (:mod:`suture_fem.outputs.interface`).
         contact_energy: the contact penalty's energy (UFL; None without it), for the line search's objective.
         friction: a Coulomb thread's nodal terms (:class:`ThreadFriction`; None without), added by the solver.
+        control: the pulled end's :class:`DisplacementControl` (``loading.control = "displacement"``; else None).
         bcs: Dirichlet conditions, in W (zero, except u_z = d on a rigid suture).
         energy: strain energy (J); end_displacement: 2 pi r-weighted integral of u_z over the pulled face.
         outer_z_dofs: the outer surface's u_z dofs (where the reaction force is read); pull_area: pi r_t^2.
@@ -120,6 +120,7 @@ class Physics:
     u_in_state: np.ndarray | None = None
     rigid_displacement: Any = None
     friction: ThreadFriction | None = None
+    control: DisplacementControl | None = None
     notes: dict[str, dict[str, Any]] = field(default_factory=dict)
     parameters: dict[str, Any] = field(default_factory=dict)
     _compiled: dict[str, Any] = field(default_factory=dict, repr=False)
@@ -177,7 +178,12 @@ class Physics:
         return self.traction * self.parameters["loading.force_scale"] if self.parameters else self.traction
 
     def applied_force_n(self) -> float:
-        """The axial force the pull applies now (N): the nominal force times ``loading.force_scale``."""
+        """The axial force the pull applies now (N): the nominal force times ``loading.force_scale``.
+
+        Under displacement control: the force the pulled end takes (its reaction; collective).
+        """
+        if self.control is not None:
+            return self.control.end_force(self)
         scale = float(self.parameters["loading.force_scale"].value) if self.parameters else 1.0
         return float(self.traction.value) * self.pull_area * scale
 
@@ -237,17 +243,6 @@ class _Spaces:
         return cls(V, V, V, u, u, None)
 
 
-@dataclass
-class _Constraints:
-    """The boundary conditions, what SNES solves for, and the constraints' numbers for the record."""
-
-    bcs: list[Any]
-    outer_z_dofs: np.ndarray
-    unknowns: Unknowns
-    rigid_displacement: Any
-    notes: dict[str, dict[str, Any]]
-
-
 def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     """Forms, boundary conditions and unknowns of a scene on a mesh, with only the called effects."""
     effects = Effects.from_scene(scene)
@@ -259,7 +254,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     terms, traction, gravity_factor = _terms(ctx, effects, scene.effects, dynamics, parameters["loading.force_scale"],
                                              kappa)
     residual, jacobian = terms.residual_and_jacobian(ctx)
-    constraints = _constraints(tagged, effects, spaces)
+    constraints = scene_constraints(tagged, effects, spaces, scene.loading.control)
     u = spaces.u
     F = kinematics.deformation_gradient(u, ctx.x)
     r_t = tagged.geometry.r_thread * regions.MM
@@ -291,6 +286,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         dynamics=dynamics,
         u_in_state=spaces.u_in_state,
         rigid_displacement=constraints.rigid_displacement,
+        control=constraints.control,
         notes=_notes(tagged, effects, scene.effects, dynamics, constraints.notes, kappa),
         parameters=parameters,
     )
@@ -363,28 +359,6 @@ def _terms(ctx: FormContext, effects: Effects, section: EffectsSection,
     if dynamics is not None:
         dynamics.terms(ctx, _displacement_of(effects.mixed), effects.rigid, terms)
     return terms, traction, gravity_factor
-
-
-def _constraints(tagged: meshmod.TaggedMesh, effects: Effects, spaces: _Spaces) -> _Constraints:
-    """Supports, the mixed formulation's pinned pressures, the rigid suture; then what SNES solves for."""
-    bcs, outer_z = supports(tagged, spaces.W_u)
-    notes: dict[str, dict[str, Any]] = {}
-    if effects.mixed:
-        pin, notes["mixed"] = pinned_pressure(tagged, spaces.W)
-        bcs.append(pin)
-    if effects.thread_track:  # sliding: u_r = 0 on the tissue's side of the track
-        track, notes["interfaces"] = cons.thread_track(tagged, spaces.W_u)
-        bcs += [track] if effects.sliding_thread else []
-    rigid = rigid_suture(tagged, spaces.W, spaces.W_u) if effects.rigid else None
-    if rigid is not None:
-        # the constraint as boundary conditions, so everything that reads bcs sees which dofs are
-        # constrained; SNES imposes it through the solver's reduction, which updates d
-        bcs += rigid.bcs
-    unknowns = classify_dofs(spaces.W, bcs, rigid_bc=rigid.axial if rigid is not None else None)
-    if rigid is not None:
-        notes["suture"] = rigid_notes(unknowns, tagged.mesh.comm)
-    return _Constraints(bcs=bcs, outer_z_dofs=outer_z, unknowns=unknowns,
-                        rigid_displacement=rigid.displacement if rigid is not None else None, notes=notes)
 
 
 def _notes(tagged: meshmod.TaggedMesh, effects: Effects, section: EffectsSection, dynamics: Dynamics | None,

@@ -221,6 +221,8 @@ def validate(scene: dict[str, Any]) -> dict[str, Any]:
         log.info("report forces above loading.force_n = %g N are not on the ramp and are skipped: %s",
                  loading["force_n"], ", ".join(f"{f:g} N" for f in above))
     loading["report_forces_n"] = sorted(set(f for f in loading["report_forces_n"] if f <= loading["force_n"]))
+    loading["report_displacements_mm"] = sorted(set(d for d in loading["report_displacements_mm"]
+                                                    if d <= loading["displacement_mm"]))
     if not solver["min_step"] <= solver["initial_step"] <= solver["max_step"]:
         raise SceneError(
             "scene keys solver.min_step <= solver.initial_step <= solver.max_step must hold, got "

@@ -45,9 +45,7 @@ class Rule:
             words = ", ".join(f'"{c}"' for c in self.choices)
             return ("a list of any of " if self.kind == "strs" else "one of ") + words
         if self.kind in ("int", "float", "floats"):
-            noun = {"int": "an integer", "float": "a finite number", "floats": "a list of finite numbers"}[
-                self.kind
-            ]
+            noun = {"int": "an integer", "float": "a finite number", "floats": "a list of finite numbers"}[self.kind]
             parts = []
             if self.lo > -INF:
                 parts.append(f"{'>' if self.lo_open else '>='} {self.lo:g}")
@@ -245,11 +243,14 @@ class MeshSection(_Section):
 
 @section("loading")
 class LoadingSection(_Section):
-    """``[loading]``: the pull force, where it is reported, and its time course."""
+    """``[loading]``: the pull (a force, or the pulled end's displacement), where it is reported, its time course."""
 
     force_n: float = key(_pos(1000.0), N)
     force_scale: float = key(_pos(100.0))
     report_forces_n: tuple[float, ...] = key(Rule("floats", lo=0.0, hi=1000.0, lo_open=True), N)
+    control: str = key(Rule("str", choices=("force", "displacement")))
+    displacement_mm: float = key(_pos(100.0), MM)
+    report_displacements_mm: tuple[float, ...] = key(Rule("floats", lo=0.0, hi=100.0, lo_open=True), MM)
     ramp_s: float = key(_pos(1e6), S)
     hold_s: float = key(_pos(1e6, lo_open=False), S)
 

@@ -33,19 +33,20 @@ class Linearised:
     #: set when a Jacobian was assembled in the current solve (the factorisation is then of this solve)
     jacobian_current: bool = False
 
-    def load_rate(self, set_load: Any, s: float) -> Any:
+    def load_rate(self, set_load: Any, s: float, step: float = 1.0) -> Any:
         """-dR/ds on the unknowns (a new vector), ``set_load(v)`` setting the loads at path parameter v.
 
-        The pull and the weight are dead loads, linear in s: R(u, s + 1) - R(u, s) is dR/ds at every u.
+        The pull and the weight are dead loads, linear in s: (R(u, s + 1) - R(u, s)) is dR/ds at every u
+        (``step`` 1). A prescribed displacement is not: a small ``step`` gives its forward difference.
         """
         r0, r1 = self.b.duplicate(), self.b.duplicate()
         try:
-            set_load(s + 1.0)
+            set_load(s + step)
             self._residual(self.snes, self.x, r1)
             set_load(s)
             self._residual(self.snes, self.x, r0)
             r1.axpy(-1.0, r0)
-            r1.scale(-1.0)
+            r1.scale(-1.0 / step)
             return r1
         finally:
             set_load(s)
@@ -85,3 +86,32 @@ class Linearised:
         ksp.solve(b, x)
         self.timings.linear_solve += time.perf_counter() - t0
         return ksp.getConvergedReason() >= 0 and bool(np.all(np.isfinite(x.getArray(readonly=True))))
+
+    def round_off_floor(self, x: Any) -> float:
+        """Eps * ||A diag|x| ||_F: how much rounding each unknown by one ulp changes the residual (N).
+
+        A is the Jacobian last assembled, at x. :meth:`_jacobian` calls this with the first Jacobian of
+        each solve, at the state the solve starts from (never at a later iterate, which may be far
+        off); the floor then holds for that solve's iterations, and its first residual test (made
+        before any Jacobian) uses the previous solve's floor. With random rounding signs this is the
+        expected norm of the change; Newton iterates stagnate at about a third of it. A prescribed
+        displacement (the reduction's offset g) is rounded too: eps ||A_full diag|g| ||_F is added in
+        quadrature (every row of the full Jacobian counted: an upper bound).
+        """
+        self._work.setArray(np.abs(x.getArray(readonly=True)))
+        if self._scaled is None:
+            self._scaled = self.A.duplicate(copy=True)
+        else:
+            self.A.copy(self._scaled, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self._scaled.diagonalScale(None, self._work)
+        norm = self._scaled.norm(PETSc.NormType.FROBENIUS)
+        offset = self.reduction.offset
+        if offset is not None:
+            g = offset.copy()
+            g.abs()
+            scaled = self.A_full.duplicate(copy=True)
+            scaled.diagonalScale(None, g)
+            norm = float(np.hypot(norm, scaled.norm(PETSc.NormType.FROBENIUS)))
+            scaled.destroy()
+            g.destroy()
+        return float(np.finfo(float).eps * norm)

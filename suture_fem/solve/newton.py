@@ -250,22 +250,6 @@ class NewtonSolver(Linearised):
         if shifted:  # the factorisation is not the Jacobian's: a tangent or sensitivity solve assembles A again
             self.jacobian_current = False
 
-    def round_off_floor(self, x: Any) -> float:
-        """Eps * ||A diag|x| ||_F: how much rounding each unknown by one ulp changes the residual (N).
-
-        A is the Jacobian last assembled, at x. :meth:`_jacobian` calls this with the first Jacobian of
-        each solve, at the state the solve starts from (never at a later iterate, which may be far
-        off); the floor then holds for that solve's iterations, and its first residual test (made
-        before any Jacobian) uses the previous solve's floor. With random rounding signs this is the
-        expected norm of the change; Newton iterates stagnate at about a third of it.
-        """
-        self._work.setArray(np.abs(x.getArray(readonly=True)))
-        if self._scaled is None:
-            self._scaled = self.A.duplicate(copy=True)
-        else:
-            self.A.copy(self._scaled, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self._scaled.diagonalScale(None, self._work)
-        return float(np.finfo(float).eps * self._scaled.norm(PETSc.NormType.FROBENIUS))
 
     def solve(self) -> tuple[bool, int, str]:
         """One Newton solve from the current state; returns (converged, iterations, reason).

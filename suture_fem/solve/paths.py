@@ -1,12 +1,14 @@
 """Load paths: the parameter a run steps along and the loads it sets at each value.
 
-The load path is the load fraction (quasi-static, :class:`LoadRamp`), or time over ramp and hold
-(with inertia, :class:`TimeHistory`); with gravity the weight is applied first, quasi-statically, at
+The load path is the load fraction (quasi-static, :class:`LoadRamp`), the fraction of the pulled end's
+displacement (displacement control, :class:`DisplacementRamp`), or time over ramp and hold (with
+inertia, :class:`TimeHistory`); with gravity the weight is applied first, quasi-statically, at
 zero pull force (:class:`GravityPreload`).
 """
 
 from __future__ import annotations
 
+from suture_fem.geometry.regions import MM
 from suture_fem.physics.problem import Physics
 from suture_fem.scene.model import Scene
 
@@ -16,8 +18,12 @@ class Path:
 
     label = "load"
     reports = True
-    #: The residual depends linearly on s (the tangent predictor then needs no derivative of the loads).
+    #: The tangent predictor applies (du/ds from -dR/ds, a finite difference of the residual over ``rate_step``).
     linear_in_s = True
+    #: The loads are dead and linear in s: dR/ds is the same all along the path (computed once, exactly, with
+    #: a unit step); otherwise it is recomputed at each state with the small step ``rate_step``.
+    dead_load = True
+    rate_step = 1.0
 
     def __init__(self, physics: Physics, targets: list[float], initial: float, min_step: float, max_step: float,
                  grow: float):
@@ -66,6 +72,38 @@ class LoadRamp(Path):
     def force(self, s: float) -> float:
         """The fraction s of the peak force."""
         return s * self.f_max
+
+
+class DisplacementRamp(Path):
+    """Displacement control: s is the fraction of ``loading.displacement_mm``; the force is the end's reaction."""
+
+    #: R is not linear in the prescribed displacement: dR/ds by a small difference at each state.
+    dead_load = False
+    rate_step = 1e-6
+
+    def __init__(self, physics: Physics, scene: Scene):
+        """Targets at every ``loading.report_displacements_mm`` and at the end; steps from ``[solver]``."""
+        o, d_max = scene.solver, scene.loading.displacement_mm
+        self.d_max = d_max * MM
+        targets = sorted(set(d / d_max for d in scene.loading.report_displacements_mm) | {1.0})
+        super().__init__(physics, targets, o.initial_step, o.min_step, o.max_step, o.grow)
+
+    def force(self, s: float) -> float:
+        """The force the end takes in the current state (N; the caller asks at a converged s)."""
+        return self.physics.applied_force_n()
+
+    def apply(self, s_from: float, s_to: float) -> None:
+        """No traction; the end at the fraction s_to of the displacement."""
+        self.physics.set_force(0.0)
+        self.physics.control.set(s_to * self.d_max)
+
+    def restore(self, s: float) -> None:
+        """The end where the converged state at s has it."""
+        self.apply(s, s)
+
+    def describe(self, s: float) -> str:
+        """The end's displacement and its force, for the log."""
+        return f"d = {s * self.d_max / MM:8.4f} mm  F = {self.force(s):8.4f} N ({100 * s / self.end:5.1f} %)"
 
 
 class GravityPreload(Path):

@@ -45,7 +45,7 @@ from suture_fem.physics.problem import Physics
 from suture_fem.scene.model import Scene
 from suture_fem.solve.diagnosis import PHYSICAL_LIMIT, failure_text, stop_cause
 from suture_fem.solve.newton import PETSC_ERROR, NewtonSolver
-from suture_fem.solve.paths import GravityPreload, LoadRamp, Path, TimeHistory
+from suture_fem.solve.paths import DisplacementRamp, GravityPreload, LoadRamp, Path, TimeHistory
 from suture_fem.solve.records import RampResult, StepRecord, Timings
 from suture_fem.support import compat
 from suture_fem.support.errors import SolveStopped, StopCause
@@ -82,14 +82,16 @@ def ramp(
     Raises SolveStopped (with every converged step already handed to on_converged) when it cannot go on.
     """
     result = RampResult(timings=timings or Timings())
-    newton = NewtonSolver(physics, scene.solver, result.timings)
+    control = physics.control  # displacement control: the end's displacement is the reduction's offset
+    newton = NewtonSolver(physics, scene.solver, result.timings, offset=control.offset if control else None)
     result.linear_solver = newton.linear_solver
     result.unknowns = newton.reduction.n_global
     fraction = scene.solver.gent_limit_fraction
     try:
         if physics.gravity_factor is not None:
             _Stepper(GravityPreload(physics, scene), newton, result, on_converged, fraction, with_solver).run()
-        main = TimeHistory(physics, scene) if physics.dynamics is not None else LoadRamp(physics, scene)
+        main = (TimeHistory(physics, scene) if physics.dynamics is not None
+                else DisplacementRamp(physics, scene) if control is not None else LoadRamp(physics, scene))
         if physics.dynamics is not None:
             physics.dynamics.start_from(physics.state)
         stepper = _Stepper(main, newton, result, on_converged, fraction, with_solver)
@@ -126,6 +128,8 @@ class _Stepper:
     def run(self) -> None:
         """Step from s = 0 to the path's end (raises SolveStopped when the step falls below its minimum)."""
         try:
+            if not self.path.dead_load:  # a prescribed displacement: start along the tangent from rest too
+                self._update_tangent()
             while self.s < self.path.end - self.eps:
                 trial = self._next_trial()
                 self.path.apply(self.s, trial)
@@ -179,7 +183,8 @@ class _Stepper:
             start.axpy(-1.0, self.last)
             warm_terms = [(1.0, start)]
             candidates.append(warm_terms)
-        best, best_merit = [], self.newton.merit() if candidates else 0.0  # the last state, under the new load
+        self._combine([])  # the last state under the trial's loads (a prescribed end moved to the trial's place)
+        best, best_merit = [], self.newton.merit() if candidates else 0.0
         for terms in candidates:
             self._combine(terms)
             merit = self.newton.merit()
@@ -211,6 +216,10 @@ class _Stepper:
             self.u_vec.axpy(factor, vec)
         self.u_vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         self.physics.sync()
+        reduction = self.newton.reduction
+        if reduction.offset is not None:  # a prescribed end: every candidate with the end where the trial puts it
+            reduction.restrict(self.u_vec, self.newton.x)
+            reduction.expand(self.newton.x)
 
     def _solve(self) -> tuple[bool, int, str]:
         """One Newton solve, counted; a converged state past the Gent limit fraction counts as failed."""
@@ -268,8 +277,10 @@ class _Stepper:
             return
         if self.tangent is None:
             self.tangent = self.u_vec.duplicate()
-        if self.rate is None:  # -dR/ds: dead loads, the same all along the path
-            self.rate = self.newton.load_rate(lambda v: self.path.apply(v, v), self.s)
+        if self.rate is None or not self.path.dead_load:  # -dR/ds: dead loads, the same all along the path
+            if self.rate is not None:
+                self.rate.destroy()
+            self.rate = self.newton.load_rate(lambda v: self.path.apply(v, v), self.s, self.path.rate_step)
         if not self.newton.tangent(self.rate, self.tangent):
             self.tangent.destroy()
             self.tangent = None

@@ -164,6 +164,9 @@ def check_scene(scene: Scene) -> None:
         raise SceneError(
             f"scene key effects.time_step_s = {e.time_step_s:g} must be <= loading.ramp_s + loading.hold_s"
         )
+    if scene.loading.control == "displacement" and (e.inertia or e.gravity):
+        raise SceneError('scene key loading.control = "displacement" needs effects.inertia = false and '
+                         "effects.gravity = false (the time history and the weight's preload are force-driven)")
     quantities = scene.output.quantities
     if not quantities:
         raise SceneError("scene key output.quantities must name at least one of " + ", ".join(QUANTITIES))

@@ -343,6 +343,9 @@ def advice(physics: Physics, cause: StopCause) -> str:
     effects = getattr(physics, "effects", None)
     if effects is not None and effects.unilateral_thread and cause in (StopCause.NEWTON_DIVERGENCE,
                                                                       StopCause.INVERTED_ELEMENT):
+        if effects.frictional_thread:
+            return ('; a Coulomb thread is carried furthest by mesh.degree = 1 with loading.control = "displacement" '
+                    "(the paper scene with four cones to 4.1 N; at P2 it stops below 0.3 N: docs/contact.md)")
         return ("; the tissue opens off a frictionless thread just ahead of a cone's apex, where it stays tied to the "
                 "cone, and that corner distorts (CONTACT.md: CalculiX stops there too; docs/contact.md): mesh.degree "
                 '= 1 carries the paper scene to 4 N, or use effects.thread_interface = "sliding"')

@@ -52,7 +52,7 @@ def bulk(factor: float) -> tuple[str, ...]:
 
 
 def matrix() -> list[Case]:
-    """The full matrix (26 runs; "K x1 P2 displacement" is the paper scene itself)."""
+    """The full matrix (34 runs; "K x1 P2 displacement" is the paper scene itself)."""
     cases: list[Case] = []
     for factor in (1, 10, 100, 1000):
         for degree, formulation in ((1, "displacement"), (2, "displacement"), (2, "mixed")):
@@ -78,6 +78,29 @@ def matrix() -> list[Case]:
                       "every element size / 4 (167,742 dofs)"))
     cases.append(Case("refinement 1, P2", 5, ("mesh.refinement=1",), "every element size / 2 (174,762 dofs)"))
     cases.append(Case("8 hollow cones", 6, ("geometry.cones=8", "geometry.cone_kind=\"hollow\""), "many cones"))
+    return cases + contact_cases()
+
+
+#: Contact cases: P1 (the degree that carries a unilateral thread), the pulled end moved (a Coulomb thread
+#: under force control crawls: docs/contact.md).
+MOVED = ("mesh.degree=1", "loading.control=\"displacement\"")
+
+
+def contact_cases() -> list[Case]:
+    """Group 7: the thread in its own track (friction 0 to 1, a large pull, soft tissue, filleted rims)."""
+    coulomb = "effects.thread_interface=\"coulomb\""
+    cases = [Case(f"contact: coulomb mu {mu:g}, 6 mm", 7, (*MOVED, coulomb, f"effects.friction_coefficient={mu:g}",
+                                                           "loading.displacement_mm=6"), "friction coefficient")
+             for mu in (0.0, 0.1, 0.5, 1.0)]
+    cases.append(Case("contact: coulomb, 12 mm", 7, (*MOVED, coulomb, "loading.displacement_mm=12"),
+                      "a large pull (the tied scene takes 12 N at about 9 mm)"))
+    cases.append(Case("contact: frictionless, 12 mm", 7, (*MOVED, "effects.thread_interface=\"frictionless\"",
+                                                          "loading.displacement_mm=12"), "a large pull"))
+    cases.append(Case("contact: coulomb, soft tissue", 7, (*MOVED, coulomb, "materials.tissue_scale=0.3112",
+                                                           "loading.displacement_mm=8"),
+                      "the calibrated tissue scale of docs/reproduction.md"))
+    cases.append(Case("contact: coulomb, filleted rims", 7, (*MOVED, coulomb, "geometry.cone_fillet_mm=0.05",
+                                                             "loading.displacement_mm=6"), "rounded cone rims"))
     return cases
 
 
@@ -96,6 +119,8 @@ FAST_SUBSET: dict[str, tuple[str, ...]] = {
                               "loading.report_forces_n=[]"),
     "12 N, 1 cone, P1": ("loading.force_n=12", "geometry.cones=1", *FAST, "loading.report_forces_n=[]"),
     "Gent jm = 0.05": ("materials.epidermis.jm=0.05", *FAST, "loading.report_forces_n=[]"),
+    "contact: coulomb mu 1, 1 cone": (*MOVED, "effects.thread_interface=\"coulomb\"", "geometry.cones=1",
+                                      "effects.friction_coefficient=1", "loading.displacement_mm=3"),
 }
 
 
@@ -112,6 +137,10 @@ def classify(results: dict[str, Any] | None, exit_code: int | None) -> dict[str,
         "status": results.get("status"),
         "load_reached_n": results.get("force_reached_n", 0.0),
         "applied_force_n": results.get("applied_force_n"),
+        # what the ramp was to reach and what it reached: the force, or (displacement control) the end's displacement
+        "target": results.get("applied_force_n", results.get("applied_displacement_mm")),
+        "reached": (results.get("force_reached_n", 0.0) if "applied_force_n" in results
+                    else results.get("thread_end_displacement_mm")),
         "newton_iterations": results.get("newton_iterations"),
         "cutbacks": results.get("cutbacks"),
         "domain_rejections": results.get("domain_rejections"),

@@ -24,7 +24,7 @@ from suture_fem.scene import Scene, parse_scene
 
 log = logging.getLogger("suture_fem")
 
-__all__ = ["OUTPUT_FILES", "OnReport", "check", "load_scene", "run_scene", "scene_model"]
+__all__ = ["OUTPUT_FILES", "OnReport", "check", "load_scene", "run_scene", "scene_model", "with_values"]
 
 
 def load_scene(source: str | Path | None = "paper", overrides: list[str] | None = None) -> Scene:
@@ -35,6 +35,13 @@ def load_scene(source: str | Path | None = "paper", overrides: list[str] | None 
     scene = parse_scene(source, overrides)
     check(scene)
     return scene
+
+
+def with_values(scene: Scene, values: dict[str, Any]) -> Scene:
+    """The scene with dotted keys set, validated as :func:`load_scene` validates (the geometry's checks too)."""
+    changed = scene.with_values(values)
+    check(changed)
+    return changed
 
 
 def scene_model(scene: Scene, out_dir: str | Path | None, comm: Any) -> Model:

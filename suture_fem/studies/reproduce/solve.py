@@ -17,22 +17,16 @@ import time
 from pathlib import Path
 from typing import Any
 
-from suture_fem.pipeline import check
+from suture_fem.pipeline import with_values
 from suture_fem.scene import Scene
-from suture_fem.studies.reproduce.paper import CONES
+from suture_fem.studies.calibrate.sensitivity import Sensitivity
+from suture_fem.studies.paper import CONES
 from suture_fem.studies.reproduce.rungs import RUNGS, rung_values
 from suture_fem.support.errors import SolveStopped
 from suture_fem.support.io import read_json
 from suture_fem.support.parallel import on_root
 
 log = logging.getLogger("suture_fem")
-
-
-def with_values(scene: Scene, values: dict[str, Any]) -> Scene:
-    """The scene with dotted keys set to values, validated (the geometry's checks included)."""
-    changed = scene.with_values(values)
-    check(changed)
-    return changed
 
 
 def case_scene(scene: Scene, cones: int, fixed: frozenset[str] | None = frozenset()) -> Scene:
@@ -81,8 +75,6 @@ def _at_reports(model: Any, comm: Any, fields_dir: Path | None,
     for report in model.reports():
         force_n = report.force_n
         if band is not None:
-            from suture_fem.studies.calibrate.sensitivity import Sensitivity
-
             sensitivity = sensitivity or Sensitivity(model.physics)
             slope = sensitivity.at_state("usum_mm", [band[0]])[1][0]  # A assembled and factorised at the state
             bands[round(force_n, 6)] = abs(float(slope)) * band[1]

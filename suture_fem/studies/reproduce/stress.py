@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from suture_fem.outputs.critical_distance import CONE_NAMES, CONE_ZONE_RADII
-from suture_fem.studies.reproduce.paper import PAPER
+from suture_fem.studies.paper import PAPER
 from suture_fem.studies.reproduce.stress_errors import error_bar, ratio_error_bar
 
 #: The tissue measures compared: (results.json key under regions.tissue, label).

@@ -16,7 +16,7 @@ import json
 from mpi4py import MPI
 
 from suture_fem.pipeline import load_scene
-from suture_fem.studies.reproduce.paper import SCENE
+from suture_fem.studies.paper import SCENE
 from suture_fem.studies.reproduce.stress import paper_table2, ratio_sensitivity
 
 FILLETS_MM = (0.0, 0.02, 0.04)  # 0: sharp rims (the default; no fillet peak)

@@ -21,6 +21,10 @@ LAYERS: dict[str, int] = {"support": 0, "scene": 1, "geometry": 2, "physics": 3,
                           "model": 6, "plots": 6, "pipeline": 7, "studies": 8, "cli": 9}
 #: Leaf tables every layer may read: they import nothing from the package.
 LEAF_TABLES = {"suture_fem.geometry.regions"}
+#: The studies (packages or modules of ``studies/``) that other studies build on, bottom up: a study
+#: imports only studies of a lower rank (every study not named here has rank 1 and imports none).
+#: ``paper`` is the paper's table of values; ``reproduce`` fits with ``calibrate``, never the reverse.
+STUDY_RANKS: dict[str, int] = {"paper": 0, "calibrate": 1, "reproduce": 2}
 
 
 def module_name(path: Path) -> str:
@@ -38,6 +42,25 @@ def imports_of(path: Path) -> list[tuple[int, str]]:
         elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("suture_fem"):
             found += [(node.lineno, f"{node.module}.{a.name}") for a in node.names]
     return found
+
+
+def study_of(module: str) -> str | None:
+    """The study (package or module under ``suture_fem.studies``) a module name belongs to, else None."""
+    parts = module.split(".")
+    return parts[2] if len(parts) > 2 and parts[:2] == ["suture_fem", "studies"] else None
+
+
+def study_edges() -> list[tuple[str, int, str, str]]:
+    """(importing module, line, imported module, importing study) of every import from one study into another."""
+    edges = []
+    for path in sorted((PACKAGE / "studies").rglob("*.py")):
+        me = module_name(path)
+        mine = study_of(me)
+        for line, target in imports_of(path):
+            theirs = study_of(target)
+            if mine is not None and theirs is not None and theirs != mine:
+                edges.append((me, line, target, mine))
+    return edges
 
 
 def folder_of(module: str) -> str | None:

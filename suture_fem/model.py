@@ -7,21 +7,26 @@
     results.usum_mm, results.at_forces[-1].seqv_pa  # the answer; model.u, model.mesh: the solved state
     model.set({"materials.tissue_scale": 1.2})      # a new Constant value: no new mesh, no new form
     stiffer = model.solve()                         # from rest again, on the same mesh and forms
+    for report in model.reports():                  # each reported force's state, set on the model in turn
+        cells = model.outputs.cell_maxima()         # stress per cell for a picture, any output of that state
 
 :class:`Model` checks the scene (the checks that need the geometry and the mesh's size, before any
 meshing), then meshes and builds the physics and the outputs once. :meth:`Model.solve` runs the load
 ramp from rest exactly as ``suture-fem run`` does (:func:`suture_fem.pipeline.run_scene` is this),
-writing results.json when given a folder. :meth:`Model.set` changes the keys that are dolfinx Constants
-of the forms (every material constant, ``materials.tissue_scale``, ``loading.force_scale``) and the
-ramp's ``loading.force_n`` and ``loading.report_forces_n``; any other key needs a new mesh or new forms
-and is refused in one line.
+writing results.json when given a folder, and keeps the state of every reported force:
+:meth:`Model.reports` sets each on the model in turn (no callback into the ramp). :meth:`Model.set`
+changes the keys that are dolfinx Constants of the forms (every material constant,
+``materials.tissue_scale``, ``loading.force_scale``) and the ramp's ``loading.force_n`` and
+``loading.report_forces_n``; any other key needs a new mesh or new forms and is refused in one line.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Mapping
+import warnings
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +34,9 @@ from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry.estimate import check_fits
 from suture_fem.geometry.section import Geometry
 from suture_fem.outputs.evaluate import Outputs
+from suture_fem.outputs.report import Report
 from suture_fem.outputs.results import Results
+from suture_fem.outputs.snapshots import Snapshot
 from suture_fem.outputs.steps import Clock, LoadSteps, OnReport, output_folder
 from suture_fem.physics.effects import check_scene
 from suture_fem.physics.problem import Physics, build_physics
@@ -111,6 +118,7 @@ class Model:
         self._clock = Clock()
         self.outputs = _build(scene, comm, self._clock)
         self.results: Results | None = None
+        self._reported: list[Snapshot] = []
         self._solves = 0
         self._built = {key: float(c.value) for key, c in self.physics.parameters.items()}
 
@@ -132,27 +140,68 @@ class Model:
     def solve(self, out_dir: str | Path | None = None, on_report: OnReport | None = None) -> Results:
         """Follow the load ramp from rest; return the Results (and write ``out_dir/results.json``, if given).
 
-        Every call starts from rest at the model's current values. ``on_report(force_n, outputs)``
-        (on every rank, at each reported force) is kept for the callers that still use it; the
-        solved state is ``model.u`` and ``model.outputs`` once solve returns. Raises SolveStopped
-        after writing the converged part when the ramp cannot be completed (``model.results`` has it).
+        Every call starts from rest at the model's current values. The solved state is ``model.u`` and
+        ``model.outputs`` once solve returns, and :meth:`reports` sets the state of each reported force.
+        ``on_report(force_n, outputs)`` (on every rank, at each reported force) is deprecated: use
+        :meth:`reports`. Raises SolveStopped after writing the converged part when the ramp cannot be
+        completed (``model.results`` and :meth:`reports` have it).
         """
+        if on_report is not None:
+            warnings.warn("Model.solve's on_report is deprecated: after solve(), model.reports() sets the state of "
+                          "each reported force on the model", DeprecationWarning, stacklevel=2)
         clock = self._clock if self._solves == 0 else Clock(meshing=self._clock.meshing, timings=Timings())
         self._solves += 1
         out = output_folder(out_dir, self.comm)
         self._at_rest()
         steps = LoadSteps(self.scene, self.outputs, out, clock, on_report)
-        self.results = steps.results
+        self.results, self._reported = steps.results, steps.snapshots
         try:
             _check_axial_support(self.scene)
             steps.open_fields()
-            history = ramp(self.physics, self.scene, steps.converged, clock.timings, with_solver=True)
+            history = ramp(self.physics, self.scene, steps.converged, clock.timings)
             steps.close()
         except BaseException as exc:
             steps.ended(exc)
             raise
         steps.finished(history)
         return steps.results
+
+    def reports(self) -> Iterator[Report]:
+        """Each reported force of the last solve in turn, with the model set to its solved state.
+
+        ``for report in model.reports(): grids[report.force_n] = plots.field_grid(model.outputs)``: while
+        a report is yielded, ``model.u``, ``model.outputs`` (``cell_maxima()``, ``evaluate()``: the same
+        record again) and the physics are as they were when that report's outputs were evaluated, the
+        last state of a stopped ramp included. When the loop ends or is left, the model is back at the
+        state :meth:`solve` ended in. Setting a state needs no communication; what is computed at it
+        usually does, so every rank runs the same loop.
+        """
+        for report in self._solved().at_forces:
+            with self.at(report.force_n):
+                yield report
+
+    @contextmanager
+    def at(self, force_n: float) -> Iterator[Report]:
+        """``with model.at(4.0) as report:`` the model set to the state of that reported force, then back.
+
+        Raises KeyError when the last solve reported no such force (``model.results.at_forces`` lists them).
+        """
+        results = self._solved()
+        found = [i for i, r in enumerate(results.at_forces) if abs(r.force_n - force_n) <= 1e-12 * max(1.0, force_n)]
+        if not found:
+            raise KeyError(f"no reported force {force_n:g} N in the last solve (reported: "
+                           f"{', '.join(f'{r.force_n:g}' for r in results.at_forces) or 'none'})")
+        ended = Snapshot.take(self.physics, results.force_reached_n or 0.0)
+        try:
+            self._reported[found[-1]].restore(self.physics)
+            yield results.at_forces[found[-1]]
+        finally:
+            ended.restore(self.physics)
+
+    def _solved(self) -> Results:
+        if self.results is None:
+            raise RuntimeError("the model has not been solved yet: call model.solve() first")
+        return self.results
 
     def _at_rest(self) -> None:
         """The state and loads of a freshly built physics: zero displacement, no pull, no weight."""

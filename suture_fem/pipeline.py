@@ -24,7 +24,7 @@ from suture_fem.scene import Scene, parse_scene
 
 log = logging.getLogger("suture_fem")
 
-__all__ = ["OUTPUT_FILES", "OnReport", "check", "load_scene", "run_scene"]
+__all__ = ["OUTPUT_FILES", "OnReport", "check", "load_scene", "run_scene", "scene_model", "with_values"]
 
 
 def load_scene(source: str | Path | None = "paper", overrides: list[str] | None = None) -> Scene:
@@ -37,17 +37,31 @@ def load_scene(source: str | Path | None = "paper", overrides: list[str] | None 
     return scene
 
 
+def with_values(scene: Scene, values: dict[str, Any]) -> Scene:
+    """The scene with dotted keys set, validated as :func:`load_scene` validates (the geometry's checks too)."""
+    changed = scene.with_values(values)
+    check(changed)
+    return changed
+
+
+def scene_model(scene: Scene, out_dir: str | Path | None, comm: Any) -> Model:
+    """The :class:`Model` of a validated scene, its output folder prepared first (collective).
+
+    An unusable folder stops every rank before meshing. ``model.solve(out_dir)`` then writes
+    results.json there; ``model.reports()`` sets the state of each reported force after the solve.
+    """
+    output_folder(out_dir, comm)
+    return Model(scene, comm, checked=True)
+
+
 def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: OnReport | None = None) -> Results:
     """Solve a validated scene; write ``out_dir/results.json`` (rank 0) and return its :class:`Results`.
 
-    ``Model(scene, comm).solve(out_dir, on_report)`` (:class:`suture_fem.model.Model`), with the output
-    folder prepared before meshing. ``on_report(force_n, outputs)``, if given, is called (on every
-    rank) at each reported force with the Outputs of the solved state, for pictures:
-    ``outputs.physics.u`` is the displacement and ``outputs.cell_maxima()`` the von Mises stress and
-    equivalent strain per cell; ``outputs.newton`` is the Newton solver that just converged (None in
-    the report of a stopped ramp's last state). A Model gives the same state without the hook.
-    The Results read like results.json's dict (``results["usum_mm"]``); ``results.to_dict()`` is that dict.
+    ``scene_model(scene, out_dir, comm).solve(out_dir, on_report)`` (:class:`suture_fem.model.Model`).
+    ``on_report(force_n, outputs)`` (deprecated), if given, is called (on every rank) at each reported
+    force with the Outputs of the solved state; a caller that needs those states uses
+    :func:`scene_model` and ``model.reports()`` instead. The Results read like results.json's dict
+    (``results["usum_mm"]``); ``results.to_dict()`` is that dict.
     Raises SolveStopped after writing the converged part when the ramp cannot be completed.
     """
-    output_folder(out_dir, comm)  # an unusable folder stops every rank before meshing
-    return Model(scene, comm, checked=True).solve(out_dir, on_report)
+    return scene_model(scene, out_dir, comm).solve(out_dir, on_report)

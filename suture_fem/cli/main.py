@@ -158,19 +158,25 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
 def _run(args: argparse.Namespace, scene: Any, comm: Any) -> int:
     """``suture-fem run``: solve, draw the pictures (unless --no-pictures), print the answer."""
     from suture_fem.cli.run_report import Pictures, summary
-    from suture_fem.pipeline import run_scene
+    from suture_fem.pipeline import scene_model
     from suture_fem.support.errors import SolveStopped
     from suture_fem.support.io import read_json
 
     name = _scene_name(args.scene)
     out = Path(args.out or f"results/{name}")
     pictures = None if args.no_pictures else Pictures(out, comm)
+    model = scene_model(scene, out, comm)
     try:
-        results = run_scene(scene, out, comm, on_report=pictures.on_report if pictures else None)
+        results = model.solve(out)
     except SolveStopped:
-        if pictures is not None and comm.rank == 0:  # the converged part, drawn before the diagnosis
-            pictures.draw(read_json(out / "results.json"), name)
+        if pictures is not None:  # the converged part, drawn before the diagnosis
+            pictures.capture(model)
+            if comm.rank == 0:
+                pictures.draw(read_json(out / "results.json"), name)
         raise
+    if pictures is not None:
+        pictures.capture(model)
+    del model  # its mesh and forms are not needed past here (the error estimate builds its own)
     if args.error_estimate:
         from suture_fem.studies.convergence.estimate import attach_error_estimate
 

@@ -14,9 +14,9 @@ from typing import Any
 
 from suture_fem.pipeline import load_scene
 from suture_fem.scene.load import parse_override
+from suture_fem.studies.paper import CONES, LABELS
 from suture_fem.studies.reproduce import SCENE, reproduce
 from suture_fem.studies.reproduce.calibration import DEFAULT, parse_key
-from suture_fem.studies.reproduce.paper import CONES, LABELS
 from suture_fem.studies.reproduce.report import calibration_heading, pct
 from suture_fem.support.errors import SceneError
 

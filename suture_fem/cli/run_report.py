@@ -1,8 +1,8 @@
 """What ``suture-fem run`` shows a person: pictures beside results.json and a short table of the answer.
 
 The pictures (USUM on the mirrored section at the last reported force, and the force-displacement
-curve) are drawn on rank 0 after the solve from the state captured at each reported force; a picture
-that cannot be drawn is a warning, never a lost results.json.
+curve) are drawn on rank 0 after the solve, from the model's state at its last reported force
+(:meth:`suture_fem.model.Model.at`); a picture that cannot be drawn is a warning, never a lost results.json.
 """
 
 from __future__ import annotations
@@ -19,18 +19,21 @@ USUM_PNG, CURVE_PNG, INTERFACE_PNG = "usum.png", "force_displacement.png", "inte
 
 
 class Pictures:
-    """Captures the solved state at each reported force (collective) and draws the pictures (rank 0)."""
+    """Captures the solved state at the last reported force (collective) and draws the pictures (rank 0)."""
 
     def __init__(self, out: Path, comm: Any):
         self.out, self.comm = out, comm
         self.grid: Any = None
         self.force_n: float | None = None
 
-    def on_report(self, force_n: float, outputs: Any) -> None:
-        """``run_scene``'s ``on_report``: keep the state of the latest reported force (rank 0's grid)."""
+    def capture(self, model: Any) -> None:
+        """Keep the model's state at the last reported force of its last solve (rank 0's grid; collective)."""
         from suture_fem import plots
 
-        self.grid, self.force_n = plots.field_grid(outputs), force_n
+        reports = model.results.at_forces if model.results is not None else []
+        if reports:
+            with model.at(reports[-1].force_n) as report:
+                self.grid, self.force_n = plots.field_grid(model.outputs), report.force_n
 
     def draw(self, results: Any, scene_name: str) -> list[Path]:
         """Draw both pictures (rank 0); returns the paths written. Failures are logged, not raised."""

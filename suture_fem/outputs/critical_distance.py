@@ -22,7 +22,7 @@ import numpy as np
 
 from suture_fem.geometry.regions import MM, TISSUE_REGIONS
 from suture_fem.outputs.base import REPORT_REGIONS, Maximum, Quantity, Setup, State
-from suture_fem.outputs.disc import CellField, DiscMax, coarse_starts, max_disc_average, top_points
+from suture_fem.outputs.disc import CellField, DiscMax, DiscPoints, coarse_starts, max_disc_average, top_points
 from suture_fem.scene.schema import OutputSection
 from suture_fem.support import compat
 
@@ -144,8 +144,9 @@ class CriticalDistance(Quantity):
                                    or [np.zeros(0, dtype=np.int32)])
             mine = cells < owned
             xy = np.concatenate([points.xy[r] for r in layers]).reshape(len(cells), -1, 2) if len(cells) else None
-            self.parts[region] = (layers, cells[mine], mine, None if xy is None else xy[mine],
-                                  compat.cell_locator(mesh, cells[mine]), _box(setup.physics.comm, xy))
+            locate = compat.cell_locator(mesh, cells[mine])
+            self.parts[region] = (layers, cells[mine], mine, None if xy is None else xy[mine], locate,
+                                  _box(setup.physics.comm, xy), DiscPoints(locate))
 
     def _measure(self, state: State, region: str) -> dict[str, Any]:
         if region not in self.parts:
@@ -172,11 +173,11 @@ class CriticalDistance(Quantity):
 
     def field(self, state: State, region: str, fn: Any) -> tuple[CellField, np.ndarray]:
         """A region's field ``fn`` (a function of :data:`FIELDS`) at the state: (the fitted field, its point values)."""
-        layers, cells, mine, xy, locate, _ = self.parts[region]
+        layers, cells, mine, xy, locate, _, discs = self.parts[region]
         values = np.concatenate([fn(state, r) for r in layers])
         values = values.reshape(len(mine), -1)[mine] if len(mine) else np.zeros((0, 1))
         xy = xy if xy is not None else np.zeros((0, 1, 2))
-        return CellField(self.setup.physics.mesh, cells, xy, values, locate), values
+        return CellField(self.setup.physics.mesh, cells, xy, values, locate, discs), values
 
     def in_region(self, state: State, region: str) -> dict[str, Any]:
         """The largest disc averages of one tissue layer (collective)."""

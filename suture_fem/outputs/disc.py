@@ -79,22 +79,46 @@ class CellField:
     ``locate``: ``compat.cell_locator(mesh, cells)`` when the caller keeps one for several fields.
     """
 
-    def __init__(self, mesh: Any, cells: np.ndarray, xy: np.ndarray, values: np.ndarray, locate: Any = None):
+    def __init__(self, mesh: Any, cells: np.ndarray, xy: np.ndarray, values: np.ndarray, locate: Any = None,
+                 discs: DiscPoints | None = None):
+        self.discs = discs
         self.comm = mesh.comm
         self.cells = np.asarray(cells, dtype=np.int32)
-        self.centre = xy.mean(axis=1) if len(cells) else np.zeros((0, 2))
-        self.coeffs = _fit(xy - self.centre[:, None, :], values) if len(cells) else np.zeros((0, 3))
-        num = mesh.topology.index_map(mesh.topology.dim).size_local
-        num += mesh.topology.index_map(mesh.topology.dim).num_ghosts
-        self.row = np.full(num, -1, dtype=np.int64)
-        self.row[self.cells] = np.arange(len(self.cells))
+        if discs is not None and discs.cells is not None:  # the same cells and points as the field before
+            self.centre, self.row, system = discs.cells
+        else:
+            self.centre = xy.mean(axis=1) if len(cells) else np.zeros((0, 2))
+            num = mesh.topology.index_map(mesh.topology.dim).size_local
+            num += mesh.topology.index_map(mesh.topology.dim).num_ghosts
+            self.row = np.full(num, -1, dtype=np.int64)
+            self.row[self.cells] = np.arange(len(self.cells))
+            system = _fit_system(xy - self.centre[:, None, :]) if len(cells) else None
+            if discs is not None:
+                discs.cells = (self.centre, self.row, system)
+        self.coeffs = _fit(system, values) if system is not None else np.zeros((0, 3))
         self.locate = locate if locate is not None else compat.cell_locator(mesh, self.cells)
 
     def at(self, points: np.ndarray) -> np.ndarray:
         """The field at points (m, 2); -inf where no cell of the field (on any rank) holds the point (collective)."""
+        located = self.locate(np.column_stack([points, np.zeros(len(points))])) if len(points) else None
+        return self._values(points, located)
+
+    def at_discs(self, centres: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+        """:meth:`at` of ``[centres, centre 0 + offsets, centre 1 + offsets, ...]``, the located points kept per centre.
+
+        With ``discs`` (:class:`DiscPoints`), a centre's points are located once and reused by every later
+        field of the same cells (another state): the same cells, so the same values, bit for bit.
+        """
+        points = np.concatenate([centres, (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)])
+        if self.discs is None or not len(centres):
+            return self.at(points)
+        return self._values(points, self.discs.located(centres, offsets))
+
+    def _values(self, points: np.ndarray, located: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+        """The field at points whose (point index, cell) pairs are ``located`` (collective)."""
         local = np.full(len(points), -np.inf)
-        if len(points):
-            idx, cells = self.locate(np.column_stack([points, np.zeros(len(points))]))
+        if located is not None:
+            idx, cells = located
             rows = self.row[cells]
             d = points[idx] - self.centre[rows]
             vals = self.coeffs[rows, 0] + self.coeffs[rows, 1] * d[:, 0] + self.coeffs[rows, 2] * d[:, 1]
@@ -104,6 +128,52 @@ class CellField:
 
         self.comm.Allreduce(local, out, op=MPI.MAX)
         return out
+
+
+class DiscPoints:
+    """Where the points of the disc rule around each centre fall among a region's cells, kept per centre.
+
+    It also keeps what every field fitted on the region's cells shares: the cells' centres and rows and
+    the least-squares system of the fit (:class:`CellField`).
+
+    They depend on the mesh, the region's cells and the disc only, not on the field: the searches at
+    later states (other reported forces, other answers of a Model) ask for many of the same centres again
+    (grids fixed in space), and find them here instead of locating their points again. Each centre keeps
+    its centre's cells and its rule points' indices and cells (under 1 kB); at most ``limit`` centres
+    are kept (beyond it, new ones are located every time). No communication: each rank keeps its own cells.
+    """
+
+    def __init__(self, locate: Any, limit: int = 50_000):
+        self.locate, self.limit = locate, limit
+        self.kept: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        #: the fields' cell centres, rows and least-squares system (they too depend on the points alone)
+        self.cells: tuple[np.ndarray, np.ndarray, Any] | None = None
+
+    def located(self, centres: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(point index, cell) pairs of the points of :meth:`CellField.at_discs`, sorted by point index."""
+        m = len(offsets)
+        tag = offsets.tobytes()[:16] + np.float64(np.abs(offsets).max()).tobytes()
+        keys = [tag + c.tobytes() for c in np.ascontiguousarray(centres, dtype=np.float64)]
+        missing = [i for i, key in enumerate(keys) if key not in self.kept]
+        found = dict(zip((keys[i] for i in missing), self._locate(centres[missing], offsets))) if missing else {}
+        if len(self.kept) < self.limit:
+            self.kept.update(found)
+        own, rule, hits = zip(*(found.get(key) or self.kept[key] for key in keys))
+        k = len(centres)
+        n_own, n_rule = np.fromiter(map(len, own), np.int64, k), np.fromiter(map(len, rule), np.int64, k)
+        idx = np.concatenate([np.repeat(np.arange(k), n_own),
+                              np.repeat(k + m * np.arange(k), n_rule) + np.concatenate(rule)])
+        return idx, np.concatenate(own + hits)
+
+    def _locate(self, centres: np.ndarray, offsets: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Per centre: (its centre's cells, its rule points' indices, their cells)."""
+        k, m = len(centres), len(offsets)
+        points = np.concatenate([centres, (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)])
+        idx, cells = self.locate(np.column_stack([points, np.zeros(len(points))]), keep=False)
+        own = np.searchsorted(idx, np.arange(k + 1))
+        rule = np.searchsorted(idx, k + m * np.arange(k + 1))
+        return [(cells[own[i]:own[i + 1]].copy(), (idx[rule[i]:rule[i + 1]] - (k + i * m)).astype(np.int16),
+                 cells[rule[i]:rule[i + 1]].copy()) for i in range(k)]
 
 
 def _max_into(out: np.ndarray, idx: np.ndarray, vals: np.ndarray) -> None:
@@ -122,15 +192,27 @@ def _max_into(out: np.ndarray, idx: np.ndarray, vals: np.ndarray) -> None:
     out[group] = np.maximum(out[group], np.maximum.reduceat(vals, starts))
 
 
-def _fit(d: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Per-cell least-squares coefficients (a, b, c) of a + b dr + c dz (offsets d from the cell's centre)."""
+def _fit_system(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | tuple[None, None, None]:
+    """What the per-cell least-squares fit needs of the points alone: (design matrix, normal matrix, scales).
+
+    (None, None, None) with fewer than 3 points per cell (the fit is then the cell's mean).
+    """
     if d.shape[1] < 3:
-        return np.column_stack([values.mean(axis=1), np.zeros((len(values), 2))])
+        return None, None, None
     scale = np.maximum(np.abs(d).max(axis=(1, 2)), 1e-300)[:, None, None]
     a = np.concatenate([np.ones(d.shape[:2] + (1,)), d / scale], axis=2)
+    return a, np.einsum("nqi,nqj->nij", a, a), np.concatenate([np.ones((len(d), 1)), scale[:, :, 0].repeat(2, axis=1)],
+                                                              axis=1)
+
+
+def _fit(system: tuple[Any, Any, Any], values: np.ndarray) -> np.ndarray:
+    """Per-cell least-squares coefficients (a, b, c) of a + b dr + c dz (offsets from the cell's centre)."""
+    a, normal, unscale = system
+    if a is None:
+        return np.column_stack([values.mean(axis=1), np.zeros((len(values), 2))])
     # right-hand sides as explicit columns: numpy 2 no longer reads a (n, 3) b as n vectors
-    coef = np.linalg.solve(np.einsum("nqi,nqj->nij", a, a), np.einsum("nqi,nq->ni", a, values)[..., None])[..., 0]
-    return coef / np.concatenate([np.ones((len(d), 1)), scale[:, :, 0].repeat(2, axis=1)], axis=1)
+    coef = np.linalg.solve(normal, np.einsum("nqi,nq->ni", a, values)[..., None])[..., 0]
+    return coef / unscale
 
 
 class DiscMax(NamedTuple):
@@ -155,7 +237,7 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
         return out
     offsets, weights = disc_rule(radius)
     points = (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
-    values = field.at(np.concatenate([centres, points])).reshape(-1)
+    values = field.at_discs(np.asarray(centres, dtype=float), offsets).reshape(-1)
     inside, vals = values[: len(centres)], values[len(centres):].reshape(len(centres), -1)
     w = weights[None, :] * np.abs(points[:, 0]).reshape(len(centres), -1)
     w = np.where(np.isfinite(vals), w, 0.0)
@@ -237,13 +319,29 @@ def top_points(comm: Any, values: np.ndarray, xy: np.ndarray, separation: float,
     local = np.column_stack([values[order], xy[order]]) if len(order) else np.zeros((0, 3))
     merged = np.concatenate(comm.allgather(local))
     merged = merged[np.lexsort((-merged[:, 2], -merged[:, 1], -merged[:, 0]))]  # largest first, ties by position
-    chosen = np.zeros((0, 2))
-    for r, z in merged[:, 1:]:
-        if not len(chosen) or np.min(np.hypot(chosen[:, 0] - r, chosen[:, 1] - z)) >= separation:
-            chosen = np.vstack([chosen, (r, z)])
-        if len(chosen) == count:
+    return spread(merged[:, 1:], separation, count)
+
+
+def spread(candidates: np.ndarray, separation: float, count: int) -> np.ndarray:
+    """The first ``count`` of candidates (k, 2), in order, each at least ``separation`` from those taken before it.
+
+    A candidate closer than ``separation`` to one taken is struck out when that one is taken, so each
+    is compared once with each taken one: the choice of a loop over the candidates, at numpy's speed.
+    """
+    candidates = np.asarray(candidates, dtype=float).reshape(-1, 2)
+    open_ = np.ones(len(candidates), dtype=bool)
+    taken: list[int] = []
+    i = 0
+    while len(taken) < count:
+        left = np.flatnonzero(open_[i:])
+        if not len(left):
             break
-    return chosen
+        i += int(left[0])
+        taken.append(i)
+        near = np.hypot(candidates[i + 1:, 0] - candidates[i, 0], candidates[i + 1:, 1] - candidates[i, 1])
+        open_[i + 1:] &= near >= separation
+        i += 1
+    return candidates[taken].reshape(-1, 2)
 
 
 #: The coarse view's grid spacing (fraction of R) and its stencil: the offsets (in spacings) within R.
@@ -281,14 +379,7 @@ def coarse_starts(field: CellField, lo: np.ndarray, hi: np.ndarray, radius: floa
     around = [(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j]
     peak = np.all([avg >= _shifted(avg, i, j, -np.inf) for i, j in around], axis=0) & np.isfinite(avg)
     idx = np.flatnonzero(peak)
-    chosen: list[np.ndarray] = []
-    for k in idx[np.argsort(-avg.reshape(-1)[idx], kind="stable")]:
-        c = nodes.reshape(-1, 2)[k]
-        if all(np.hypot(*(c - o)) >= radius for o in chosen):
-            chosen.append(c)
-        if len(chosen) == count:
-            break
-    return np.array(chosen, dtype=float).reshape(-1, 2)
+    return spread(nodes.reshape(-1, 2)[idx[np.argsort(-avg.reshape(-1)[idx], kind="stable")]], radius, count)
 
 
 def _shifted(a: np.ndarray, i: int, j: int, fill: float) -> np.ndarray:

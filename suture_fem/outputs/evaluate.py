@@ -51,10 +51,6 @@ class Outputs:
         self.active = [cls(self.setup) for cls in QUANTITIES if cls.wanted(quantities)]
         self.thread_end = ThreadEnd(self.setup)
         self.where = {name: text for cls in QUANTITIES for name, text in cls.describe(output).items()}
-        #: during a report from inside the ramp, the Newton solver that just converged (its factorisation
-        #: is A at the state, or it assembles A again if that was shifted: a report callback may solve with
-        #: it); None otherwise
-        self.newton: Any = None
 
     @property
     def tensor_exprs(self) -> dict[int, Any]:

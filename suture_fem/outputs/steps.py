@@ -2,8 +2,9 @@
 
 :class:`LoadSteps` is what a solve hands the load ramp (its ``on_converged``): after every converged
 step the results gain a point of the force-displacement curve and results.json is rewritten
-(atomically, rank 0); at every reported force the outputs are evaluated into the results, the field
-files get the state and ``on_report`` (if any) is called; when the ramp ends, stops, is interrupted
+(atomically, rank 0); at every reported force the outputs are evaluated into the results, the state
+is kept (a :class:`~suture_fem.outputs.snapshots.Snapshot`, for :meth:`suture_fem.model.Model.reports`),
+the field files get it and ``on_report`` (if any) is called; when the ramp ends, stops, is interrupted
 or fails, results.json says which. :func:`output_folder` prepares the folder first (removing what an
 earlier run wrote there, :data:`OUTPUT_FILES`), so an unusable folder stops every rank before the solve.
 """
@@ -20,6 +21,7 @@ from typing import Any
 from suture_fem.outputs.evaluate import Outputs
 from suture_fem.outputs.fields import FieldWriter
 from suture_fem.outputs.results import Results
+from suture_fem.outputs.snapshots import Snapshot
 from suture_fem.scene import Scene
 from suture_fem.solve.records import Timings
 from suture_fem.support.errors import SolveStopped, SutureFemError
@@ -28,7 +30,8 @@ from suture_fem.support.parallel import on_root
 
 log = logging.getLogger("suture_fem")
 
-#: ``on_report(force_n, outputs)``: called on every rank at each reported force.
+#: ``on_report(force_n, outputs)``: called on every rank at each reported force (kept for external callers;
+#: :meth:`suture_fem.model.Model.reports` gives the same states after the solve).
 OnReport = Callable[[float, Outputs], None]
 
 
@@ -68,8 +71,8 @@ class LoadSteps:
     """What the run keeps of its load steps.
 
     The results after every converged step, and at every reported force the outputs record, the
-    field files and ``on_report``; results.json is rewritten after each step and when the ramp ends
-    or stops.
+    state (``snapshots``, one per record of ``results.at_forces``), the field files and ``on_report``;
+    results.json is rewritten after each step and when the ramp ends or stops.
     """
 
     def __init__(self, scene: Scene, outputs: Outputs, out: Path | None, clock: Clock, on_report: OnReport | None):
@@ -79,6 +82,7 @@ class LoadSteps:
         self.path = out / "results.json" if out is not None else None
         self.fields_path = out / "fields.xdmf" if out is not None and scene.output.fields else None
         self.writer: FieldWriter | None = None
+        self.snapshots: list[Snapshot] = []
         self.save()  # "running", with the process that runs it, from the start
 
     def open_fields(self) -> None:
@@ -86,20 +90,17 @@ class LoadSteps:
         if self.fields_path is not None:
             self.writer = FieldWriter(self.outputs.physics, self.outputs, str(self.fields_path))
 
-    def converged(self, force_n: float, report: bool, time_s: float | None = None, solver: Any = None) -> None:
+    def converged(self, force_n: float, report: bool, time_s: float | None = None) -> None:
         """After every converged step of the ramp (``time_s``: with inertia, the time reached)."""
         self.results.step(force_n, self.outputs.thread_end_displacement_mm(), time_s)
         if report:
-            self.outputs.newton = solver  # for on_report only while the solver is alive
-            try:
-                self.report(force_n)
-            finally:
-                self.outputs.newton = None
+            self.report(force_n)
         self.save()
 
     def report(self, force_n: float) -> None:
         """The outputs of the current state at a reported force (collective)."""
         self.results.report(force_n, self.outputs.evaluate())
+        self.snapshots.append(Snapshot.take(self.outputs.physics, force_n))
         if self.writer is not None:
             self.writer.write(force_n)
         if self.on_report is not None:

@@ -1,6 +1,6 @@
 """A picture of the tissue's von Mises stress around one cone, with the peaks, the averaging disc and the fillet.
 
-``cone_stress_picture`` solves a scene once (``pipeline.run_scene``) and draws, at its last reported force,
+``cone_stress_picture`` solves a scene once (a Model) and draws, from its state at its last reported force,
 the cone of the tissue's largest critical-distance average near a cone (``seqv_cd_cone_pa``; else of the
 fillet peak, else of the raw maximum): the whole cone and a zoom on that disc, the raw maximum
 (mesh-dependent), the peak on the resolved fillet, the averaging disc and the fillet arcs.
@@ -100,17 +100,18 @@ def _focus(tissue: Mapping[str, Any]) -> list[float]:
 def cone_stress_picture(scene: Any, png: str | Path, comm: Any) -> Path | None:
     """Solve ``scene`` and draw the stress around the cone of :func:`_focus` (rank 0 draws; collective)."""
     from suture_fem.geometry.section import Geometry
-    from suture_fem.pipeline import run_scene
+    from suture_fem.pipeline import scene_model
 
-    grids: dict[float, Any] = {}
-    results = run_scene(scene, None, comm, on_report=lambda f, outputs: grids.__setitem__(f, field_grid(outputs)))
+    model = scene_model(scene, None, comm)
+    results = model.solve()
+    with model.at(results.at_forces[-1].force_n) as record:
+        grid = field_grid(model.outputs)
     if comm.rank != 0:
         return None
-    record = results["at_forces"][-1]
     geometry = Geometry.from_section(scene.geometry)
     tissue = record["regions"]["tissue"]
     at = _focus(tissue)
     cone = min(geometry.cones, key=lambda c: abs(0.5 * (c.base_z + c.apex_z) - at[1]))
     arcs = [seg for kind, seg in cone.outline if kind == "arc"]
-    return plot_cone_stress(grids[record["force_n"]], record, {"base_z_mm": cone.base_z, "apex_z_mm": cone.apex_z},
+    return plot_cone_stress(grid, record, {"base_z_mm": cone.base_z, "apex_z_mm": cone.apex_z},
                             arcs, scene.output.critical_distance_mm, png)

@@ -148,14 +148,16 @@ def eval_expression(compiled: Any, mesh: Any, cells: np.ndarray) -> np.ndarray:
 def cell_locator(mesh: Any, cells: np.ndarray) -> Any:
     """A function of points (m, 3): (point index, cell) of every one of the given local cells containing each point.
 
-    A point on a shared edge is in both cells. Built once (a bounding-box tree of ``cells``).
+    A point on a shared edge is in both cells. Built once (a bounding-box tree of ``cells``). Each point's
+    cells do not depend on the other points asked with it. ``locate(points, keep=False)``: the point set
+    is not kept for a later call with the same points.
     """
     import dolfinx.geometry as geo
 
     cells = np.asarray(cells, dtype=np.int32)
     tdim = mesh.topology.dim
     if len(cells) == 0:
-        return lambda points: (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32))
+        return lambda points, keep=True: (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int32))
     if hasattr(geo, "bb_tree"):  # pragma: no cover
         tree = geo.bb_tree(mesh, tdim, cells)
         collide = geo.compute_collisions_points
@@ -167,8 +169,10 @@ def cell_locator(mesh: Any, cells: np.ndarray) -> Any:
 
     found: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # the same points again (a search's fixed grid)
 
-    def locate(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def locate(points: np.ndarray, keep: bool = True) -> tuple[np.ndarray, np.ndarray]:
         points = np.ascontiguousarray(points, dtype=np.float64)
+        if not keep:  # the caller keeps what it needs (outputs.disc.DiscPoints)
+            return _locate(points)
         key = hashlib.blake2b(points.tobytes(), digest_size=16).digest()
         if key not in found:
             if len(found) >= _LOCATED_KEPT:

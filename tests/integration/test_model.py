@@ -58,6 +58,30 @@ def test_a_model_solves_as_run_scene_does_and_keeps_its_state(model, first, tmp_
     assert model.mesh is model.physics.mesh and model.outputs.physics is model.physics
 
 
+def test_reports_set_each_reported_state_again_and_end_at_the_solved_one(model, first):
+    solved = model.u.x.array.copy()
+    seen = []
+    for report in model.reports():  # the outputs of the state set again: the record, bit for bit
+        close(model.outputs.evaluate(), dict(report.record), rel=0.0)
+        seen.append(report.force_n)
+    assert seen == [0.5, 1.0] and np.array_equal(model.u.x.array, solved)
+    with model.at(0.5) as report:
+        u = model.u.x.array.reshape(-1, 2)
+        assert math.sqrt(np.max(np.sum(u**2, axis=1))) * 1e3 == pytest.approx(report.usum_mm, rel=1e-12)
+        assert report.usum_mm < first["usum_mm"]
+    assert np.array_equal(model.u.x.array, solved)
+    with pytest.raises(KeyError, match="reported: 0.5, 1"), model.at(0.7):
+        pass
+
+
+def test_on_report_still_works_with_a_deprecation_warning(model, first):
+    called = []
+    with pytest.warns(DeprecationWarning, match="model.reports"):
+        again = model.solve(on_report=lambda f, outputs: called.append((f, outputs is model.outputs)))
+    assert called == [(0.5, True), (1.0, True)]
+    close(again.to_dict(), first)
+
+
 def test_a_second_solve_after_set_is_a_fresh_model_at_those_values(model, first):
     settable = model.settable()
     assert set(CHANGED) <= set(settable) and not any(k.startswith(("geometry.", "mesh.")) for k in settable)

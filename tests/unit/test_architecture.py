@@ -16,7 +16,17 @@ from pathlib import Path
 
 import pytest
 
-from scripts.architecture import LAYERS, LEAF_TABLES, PACKAGE, ROOT, imports_of, module_name
+from scripts.architecture import (
+    LAYERS,
+    LEAF_TABLES,
+    PACKAGE,
+    ROOT,
+    STUDY_RANKS,
+    imports_of,
+    module_name,
+    study_edges,
+    study_of,
+)
 
 MAX_MODULE_LINES = 400
 MAX_FUNCTION_LINES = 60
@@ -50,6 +60,14 @@ def test_imports_point_one_way():
             if theirs[1] >= mine[1]:
                 back_edges.append(f"{me}:{line} ({mine[0]}) imports {target} ({theirs[0]})")
     assert not back_edges, "imports against the pipeline's direction:\n" + "\n".join(back_edges)
+
+
+def test_studies_import_only_the_studies_they_build_on():
+    """No cycle between studies: an import (at any depth, lazy ones included) goes to a lower-ranked study."""
+    against = [f"{me}:{line} imports {target}" for me, line, target, mine in study_edges()
+               if STUDY_RANKS.get(study_of(target), 1) >= STUDY_RANKS.get(mine, 1)]
+    assert not against, "imports between studies against scripts/architecture.py's STUDY_RANKS:\n" + "\n".join(against)
+    assert {study_of(t) for _, _, t, _ in study_edges()} <= set(STUDY_RANKS)  # each one built on is ranked
 
 
 @pytest.mark.parametrize("folder", ["demos", "benchmarks", "suture_fem"])

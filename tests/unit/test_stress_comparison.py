@@ -143,7 +143,7 @@ def test_the_ladder_measures_include_the_near_cone_averages():
 
 
 def test_ratio_sensitivity_reports_the_near_cone_ratios(monkeypatch):
-    """No solving: run_scene and the disc averages replaced by fakes with known values per cone count."""
+    """No solving: the Model and the disc averages replaced by fakes with known values per cone count."""
     from suture_fem import pipeline
     from suture_fem.outputs import base, critical_distance
     from suture_fem.studies.reproduce.stress import ratio_sensitivity
@@ -168,13 +168,18 @@ def test_ratio_sensitivity_reports_the_near_cone_ratios(monkeypatch):
             near = {"seqv_cd_cone_pa": 80e3 / self.cones * self.radius * 10, "eptoeqv_cd_cone": 0.8 / self.cones}
             return {k: Value(v) for k, v in {**wide, **near}.items()}
 
-    def run_scene(scene, out, comm, on_report):
-        cones = scene.values["geometry.cones"]
-        on_report(1.0, type("Outputs", (), {"setup": cones})())
-        tissue = {"seqv_fillet_pa": None, "eptoeqv_fillet": None}
-        return {"at_forces": [{"force_n": 1.0, "regions": {"tissue": tissue}}]}
+    class SolvedModel:  # a Model whose solve reports 1 N and whose outputs' setup is the cone count
+        def __init__(self, scene, out, comm):
+            self.outputs = type("Outputs", (), {"setup": scene.values["geometry.cones"]})()
 
-    monkeypatch.setattr(pipeline, "run_scene", run_scene)
+        def solve(self):
+            tissue = {"seqv_fillet_pa": None, "eptoeqv_fillet": None}
+            return {"at_forces": [{"force_n": 1.0, "regions": {"tissue": tissue}}]}
+
+        def reports(self):
+            yield {"force_n": 1.0}
+
+    monkeypatch.setattr(pipeline, "scene_model", SolvedModel)
     monkeypatch.setattr(critical_distance, "CriticalDistance", Averages)
     monkeypatch.setattr(base, "State", lambda setup: setup)
     rows = ratio_sensitivity(Scene(), None, fillets_mm=(0.0,), distances_mm=(0.05, 0.1))

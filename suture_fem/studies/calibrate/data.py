@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from suture_fem.studies.paper import PAPER
 from suture_fem.support.errors import SceneError
 
 #: The model quantity compared with each kind of data.
@@ -62,8 +63,6 @@ def resolution(text: str) -> float:
 
 def paper_points() -> list[Point]:
     """The paper's USUM values (4 cones at 1-4 N, Table 1; 1-3 cones at 1 N, section 2.2)."""
-    from suture_fem.studies.reproduce.paper import PAPER  # here: reproduce's calibration imports this module
-
     return [Point(p.force_n, p.value, None, resolution(p.printed.split()[0]), USUM, p.cones,
                   f"{p.source}, {p.cones} cones, {p.force_n:g} N") for p in PAPER if p.quantity == "usum_mm"]
 

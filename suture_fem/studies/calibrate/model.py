@@ -24,12 +24,12 @@ import numpy as np
 
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.physics.problem import build_physics
+from suture_fem.pipeline import with_values
 from suture_fem.scene import Scene
 from suture_fem.solve.stepping import ramp
 from suture_fem.studies.calibrate.data import Point
 from suture_fem.studies.calibrate.keys import FitKey
 from suture_fem.studies.calibrate.sensitivity import Sensitivity
-from suture_fem.studies.reproduce.solve import with_values
 
 log = logging.getLogger("suture_fem")
 

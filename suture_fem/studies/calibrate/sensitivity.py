@@ -8,9 +8,8 @@ fixed dofs stay fixed. The calibration's ramps hand the converged Newton solver 
 callback (:func:`~suture_fem.solve.stepping.ramp` with ``with_solver``), and A's factorisation from
 its last iteration (inside the solve's tolerance of the converged state) solves for every parameter
 of that state: no assembly, no factorisation, unless the inertia correction shifted that last
-factorisation (then A is assembled and factorised once; reproduce's USUM bands get it too, through
-``outputs.newton``). Callers without a solver (a stopped ramp's last report) get A assembled once more
-at the state and factorised once (MUMPS LU).
+factorisation (then A is assembled and factorised once). Callers without a solver (reproduce's USUM
+bands, at each state a solved Model reports) get A assembled at the state and factorised once (MUMPS LU).
 
 From du/dp: the thread end's displacement is a linear functional of u (the same form, evaluated at
 du/dp); USUM is max |u_i| over the nodes, whose derivative at its node i* is u_i* . du_i*/dp / |u_i*|; the

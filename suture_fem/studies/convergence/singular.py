@@ -73,21 +73,19 @@ def singular_free_maxima(outputs: Any, fillet_mm: float) -> dict[str, Any]:
 
 
 def solve_rung(scene: Scene, folder: Path | None, comm: Any) -> dict[str, Any]:
-    """``run_scene`` plus, at every reported force, the singularity-free maxima under ``ledger``.
+    """A Model's solve plus, at every reported force's state, the singularity-free maxima under ``ledger``.
 
     Returns the JSON form of the results with them (``at_forces[].ledger``); results.json is
     rewritten with them (rank 0).
     """
-    from suture_fem.pipeline import run_scene
+    from suture_fem.pipeline import scene_model
 
+    model = scene_model(scene, folder, comm)
+    results = {**model.solve(folder)}  # a plain dict: the Results are read-only
     extra: dict[float, dict[str, Any]] = {}
-    fillet = scene.geometry.cone_fillet_mm
-
-    def on_report(force_n: float, outputs: Any) -> None:
-        if {"seqv", "eptoeqv"} <= set(getattr(outputs, "quantities", ("seqv", "eptoeqv"))):
-            extra[force_n] = singular_free_maxima(outputs, fillet)
-
-    results = {**run_scene(scene, folder, comm, on_report=on_report)}  # a plain dict: run_scene's is read-only
+    if {"seqv", "eptoeqv"} <= set(model.outputs.quantities):
+        fillet = scene.geometry.cone_fillet_mm
+        extra = {report.force_n: singular_free_maxima(model.outputs, fillet) for report in model.reports()}
     results["at_forces"] = [{**rec, "ledger": extra[rec["force_n"]]} if rec["force_n"] in extra else rec
                             for rec in results.get("at_forces", [])]
     if folder is not None:

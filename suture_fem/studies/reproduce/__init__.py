@@ -38,9 +38,9 @@ the paper, the trends), ``report`` (comparison.md), ``figures`` (the pictures), 
 :func:`reproduce`). The names below are the study's public face.
 """
 
+from suture_fem.studies.paper import CONES, FORCES_N, PAPER, SCENE, TARGET, PaperValue
 from suture_fem.studies.reproduce.calibration import CANDIDATES, DEFAULT, calibrate
 from suture_fem.studies.reproduce.compare import comparison, ours, trends
-from suture_fem.studies.reproduce.paper import CONES, FORCES_N, PAPER, SCENE, TARGET, PaperValue
 from suture_fem.studies.reproduce.study import reproduce
 
 __all__ = ["CANDIDATES", "CONES", "DEFAULT", "FORCES_N", "PAPER", "SCENE", "TARGET", "PaperValue", "calibrate",

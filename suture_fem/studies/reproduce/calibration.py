@@ -2,7 +2,7 @@
 
 The honest protocol of MODEL.md: every dimension the paper leaves open is fixed first from public data
 (``suture_fem/scene/defaults.toml`` names each source); then ONE parameter is calibrated against ONE
-value, USUM = 4.0 mm for 4 cones at 1 N (:data:`~suture_fem.studies.reproduce.paper.TARGET`); every
+value, USUM = 4.0 mm for 4 cones at 1 N (:data:`~suture_fem.studies.paper.TARGET`); every
 other value of the paper is a prediction.
 
 The calibration is ``suture-fem calibrate``'s (:mod:`suture_fem.studies.calibrate`): the bounded least
@@ -25,7 +25,10 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.scene import Scene
-from suture_fem.studies.reproduce.paper import TARGET
+from suture_fem.studies.calibrate.data import USUM, Point, resolution
+from suture_fem.studies.calibrate.keys import parse_fit
+from suture_fem.studies.calibrate.study import calibrate as fit_study
+from suture_fem.studies.paper import TARGET
 
 log = logging.getLogger("suture_fem")
 
@@ -44,8 +47,6 @@ NONE = "none"
 
 def target_point() -> Any:
     """The calibration target as a calibrate data point: USUM 4.0 mm (printed to 0.1 mm), 4 cones, 1 N."""
-    from suture_fem.studies.calibrate.data import USUM, Point, resolution
-
     return Point(TARGET.force_n, TARGET.value, None, resolution(TARGET.printed.split()[0]), USUM, TARGET.cones,
                  f"{TARGET.source}, {TARGET.cones} cones, {TARGET.force_n:g} N")
 
@@ -54,8 +55,6 @@ def parse_key(text: str, scene: Scene) -> Any:
     """``KEY[=LOW:HIGH]`` as a calibrate FitKey, or None for ``none`` (SceneError: one line, exit 2)."""
     if text.strip().lower() == NONE:
         return None
-    from suture_fem.studies.calibrate.keys import parse_fit
-
     return parse_fit(text, scene)
 
 
@@ -68,8 +67,6 @@ def calibrate(scene: Scene, comm: Any, key: Any, out: Path | None = None, max_ev
     no value in the bounds reaches 4.0 mm), and then nothing is moved. ``out`` receives calibrate's
     calibration.json and calibration.md; ``model`` replaces the finite element model (tests).
     """
-    from suture_fem.studies.calibrate.study import calibrate as fit_study
-
     point = target_point()
     rec = fit_study(scene, [point], [key], comm, out, max_evaluations=max_evaluations, curve=False, model=model)
     p = rec["parameters"][key.key]

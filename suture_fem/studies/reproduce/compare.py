@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from suture_fem.scene import Scene
-from suture_fem.studies.reproduce.paper import CONES, FORCES_N, PAPER, TARGET
+from suture_fem.studies.paper import CONES, FORCES_N, PAPER, TARGET
 
 
 def _record(results: dict[str, Any] | None, force_n: float) -> dict[str, Any] | None:

@@ -9,8 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from suture_fem.studies.paper import CONES, FORCES_N, LABELS, PAPER, QUANTITIES
 from suture_fem.studies.reproduce.compare import series
-from suture_fem.studies.reproduce.paper import CONES, FORCES_N, LABELS, PAPER, QUANTITIES
 
 #: Shown in the pictures of Figure 2 (4 cones) and Figure 3 (1 N).
 FIG2_FORCES_N = (1.0, 3.0, 4.0)

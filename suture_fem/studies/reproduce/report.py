@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from suture_fem.studies.paper import LABELS
 from suture_fem.studies.reproduce.calibration import DEFAULT, MEASURED_SCALE
-from suture_fem.studies.reproduce.paper import LABELS
 from suture_fem.studies.reproduce.stress import stress_markdown
 from suture_fem.studies.reproduce.stress_errors import SCALE_TOLERANCE
 

@@ -17,22 +17,16 @@ import time
 from pathlib import Path
 from typing import Any
 
-from suture_fem.pipeline import check
+from suture_fem.pipeline import with_values
 from suture_fem.scene import Scene
-from suture_fem.studies.reproduce.paper import CONES
+from suture_fem.studies.calibrate.sensitivity import Sensitivity
+from suture_fem.studies.paper import CONES
 from suture_fem.studies.reproduce.rungs import RUNGS, rung_values
 from suture_fem.support.errors import SolveStopped
 from suture_fem.support.io import read_json
 from suture_fem.support.parallel import on_root
 
 log = logging.getLogger("suture_fem")
-
-
-def with_values(scene: Scene, values: dict[str, Any]) -> Scene:
-    """The scene with dotted keys set to values, validated (the geometry's checks included)."""
-    changed = scene.with_values(values)
-    check(changed)
-    return changed
 
 
 def case_scene(scene: Scene, cones: int, fixed: frozenset[str] | None = frozenset()) -> Scene:
@@ -52,42 +46,53 @@ def solve_case(scene: Scene, folder: Path, comm: Any, fields_dir: Path | None = 
 
     ``fields_dir``: the state at every reported force is also written there (:func:`field_path`) and
     kept in "grids" (rank 0). ``band`` (key, 95 % half-interval of the key): USUM's linearised band at
-    every reported force, |dUSUM/dkey| (direct method, with the factorisation the Newton solve has
-    just made at the state) times the half-interval, in "bands" {force: half-width (mm)}.
+    every reported force, |dUSUM/dkey| (direct method, with the Jacobian assembled and factorised at
+    the model's state of that force) times the half-interval, in "bands" {force: half-width (mm)}.
     """
-    from suture_fem import plots
-    from suture_fem.pipeline import run_scene
+    from suture_fem.pipeline import scene_model
 
-    n = scene.geometry.cones
-    grids: dict[float, Any] = {}
-    bands: dict[float, float] = {}
-    made: list[Any] = []
-
-    def on_report(force_n: float, outputs: Any) -> None:
-        if band is not None:
-            from suture_fem.studies.calibrate.sensitivity import Sensitivity
-
-            made[:] = made or [Sensitivity(outputs.physics)]
-            slope = made[0].at_state("usum_mm", [band[0]], outputs.newton)[1][0]  # Newton's factorisation
-            bands[round(force_n, 6)] = abs(float(slope)) * band[1]
-        if fields_dir is None:
-            return
-        grid = plots.field_grid(outputs)
-        if comm.rank == 0:
-            grids[round(force_n, 6)] = grid
-        on_root(comm, "writing a field file", lambda: grid is None or plots.save_grid(
-            grid, field_path(fields_dir, n, force_n)))
-
+    model = scene_model(scene, folder, comm)
     stopped = None
     try:
-        results = run_scene(scene, folder, comm, on_report=on_report)
+        results = model.solve(folder).to_dict()
     except SolveStopped as stop:
-        log.error("%d cone(s): %s", n, stop)
+        log.error("%d cone(s): %s", scene.geometry.cones, stop)
         stopped = str(stop)
         results = comm.bcast(read_json(folder / "results.json") if comm.rank == 0 else None, root=0)
-    if not isinstance(results, dict):
-        results = results.to_dict()
+    bands, grids = _at_reports(model, comm, fields_dir, band)
     return {"results": results, "stopped": stopped, "bands": bands, "grids": grids}
+
+
+def _at_reports(model: Any, comm: Any, fields_dir: Path | None,
+                band: tuple[str, float] | None) -> tuple[dict[float, float], dict[float, Any]]:
+    """USUM's band and the field grid (written to ``fields_dir``) at every reported force of the model's solve."""
+    from suture_fem import plots
+
+    n = model.scene.geometry.cones
+    grids: dict[float, Any] = {}
+    bands: dict[float, float] = {}
+    sensitivity = None
+    for report in model.reports():
+        force_n = report.force_n
+        if band is not None:
+            sensitivity = sensitivity or Sensitivity(model.physics)
+            slope = sensitivity.at_state("usum_mm", [band[0]])[1][0]  # A assembled and factorised at the state
+            bands[round(force_n, 6)] = abs(float(slope)) * band[1]
+        if fields_dir is None:
+            continue
+        grid = plots.field_grid(model.outputs)
+        if comm.rank == 0:
+            grids[round(force_n, 6)] = grid
+        on_root(comm, "writing a field file", _save, grid, field_path(fields_dir, n, force_n))
+    return bands, grids
+
+
+def _save(grid: Any, path: Path) -> None:
+    """Write a field grid (pyvista), if this rank has it."""
+    from suture_fem import plots
+
+    if grid is not None:
+        plots.save_grid(grid, path)
 
 
 def solve_cone_counts(scene: Scene, out: Path, comm: Any, fields: bool = True, cones: tuple[int, ...] = CONES,

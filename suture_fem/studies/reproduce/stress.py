@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from suture_fem.outputs.critical_distance import CONE_NAMES, CONE_ZONE_RADII
-from suture_fem.studies.reproduce.paper import PAPER
+from suture_fem.studies.paper import PAPER
 from suture_fem.studies.reproduce.stress_errors import error_bar, ratio_error_bar
 
 #: The tissue measures compared: (results.json key under regions.tissue, label).
@@ -218,7 +218,7 @@ def ratio_sensitivity(scene: Any, comm: Any, fillets_mm: Sequence[float], distan
     """
     from suture_fem.outputs.base import State
     from suture_fem.outputs.critical_distance import CriticalDistance
-    from suture_fem.pipeline import run_scene
+    from suture_fem.pipeline import scene_model
 
     rows = []
     for fillet in fillets_mm:
@@ -226,14 +226,13 @@ def ratio_sensitivity(scene: Any, comm: Any, fillets_mm: Sequence[float], distan
         for cones in (2, 4):
             s = scene.with_values({"geometry.cones": cones, "geometry.cone_fillet_mm": fillet,
                                    "loading.force_n": force_n, "loading.report_forces_n": [], "output.fields": False})
+            model = scene_model(s, None, comm)
+            res = model.solve()
             per: dict[str, Any] = {}
-
-            def on_report(f: float, outputs: Any, per: dict[str, Any] = per) -> None:
+            for _ in model.reports():  # the one reported force, force_n
                 for d in distances_mm:
-                    tissue = CriticalDistance(outputs.setup, radius_mm=d).in_tissue(State(outputs.setup))
+                    tissue = CriticalDistance(model.outputs.setup, radius_mm=d).in_tissue(State(model.outputs.setup))
                     per[d] = {k: v.value for k, v in tissue.items()}
-
-            res = run_scene(s, None, comm, on_report=on_report)
             tissue = _tissue_at(res, force_n) or {}
             found[cones] = {"cd": per, "fillet": {k: tissue.get(k) for k in ("seqv_fillet_pa", "eptoeqv_fillet")}}
         for d in distances_mm:

@@ -7,14 +7,16 @@ import time
 from pathlib import Path
 from typing import Any
 
+from suture_fem.pipeline import with_values
 from suture_fem.scene import Scene
+from suture_fem.studies.calibrate.keys import DIRECT
+from suture_fem.studies.paper import CONES, SCENE, TARGET
 from suture_fem.studies.reproduce.calibration import DEFAULT, calibrate, not_calibrated, parse_key
 from suture_fem.studies.reproduce.compare import comparison, ours
 from suture_fem.studies.reproduce.figures import figures
-from suture_fem.studies.reproduce.paper import CONES, SCENE, TARGET
 from suture_fem.studies.reproduce.report import comparison_markdown
 from suture_fem.studies.reproduce.rungs import RUNGS
-from suture_fem.studies.reproduce.solve import case_scene, cpu_self, solve_cone_counts, with_values
+from suture_fem.studies.reproduce.solve import case_scene, cpu_self, solve_cone_counts
 from suture_fem.studies.reproduce.stress import stress_comparison
 from suture_fem.support.io import write_json, write_text
 from suture_fem.support.parallel import on_root
@@ -92,8 +94,6 @@ def _band(cal: dict[str, Any]) -> tuple[str, float] | None:
     (one factorisation of the Jacobian per reported state). A geometric key's derivative is a
     remeshed finite difference, not available inside one ramp: no band then (the record says so).
     """
-    from suture_fem.studies.calibrate.keys import DIRECT
-
     if cal["status"] != "calibrated":
         return None
     if cal["sensitivity"] != DIRECT:

@@ -1,5 +1,8 @@
 """The paper's values (Mousavi et al., Tables 1 and 2, section 2.2) and the cases ``reproduce`` solves.
 
+A table the studies read (``reproduce`` compares with it, ``calibrate`` fits to it); it imports nothing
+from the package, so no study reaches another through it.
+
 One load ramp per cone count (:data:`CONES`: 1, 2, 3, 4 cones to 4 N, reported at :data:`FORCES_N`: 1,
 2, 3, 4 N). Every value the paper prints is one :class:`PaperValue`; the Table 1 SEQV at 4 cones, 1 N
 (23549 kPa) is kept with the reason it is not used (an evident misprint). :data:`TARGET` is the one

@@ -1,0 +1,217 @@
+"""Many answers from one Model: the paper ramp solved again after ``materials.tissue_scale`` changes.
+
+    .venv/bin/python benchmarks/many_answers.py [--answers 10] [--out benchmarks/out/many_answers]
+
+In one process: build the Model of the paper scene at P1, refinement 0 (4 cones, the ramp to 4 N with
+reports at 1, 2, 3 N) and solve it (the first answer, its CPU counted from before ``import
+suture_fem``), then ``model.set({"materials.tissue_scale": s})`` and solve again for ``--answers``
+values of s. Each later answer's CPU is split into Newton (``NewtonSolver.solve``), outputs
+(``Outputs.evaluate`` at the reported forces and the thread end after every step; the critical-distance
+searches apart) and the rest; counters, installed before the package is imported, say what a later
+answer did: modules imported (a ``sys.meta_path`` finder sees every import that is not already done),
+meshes made (``geometry.mesh.scene_mesh``) and forms, expressions or elements loaded
+(``dolfinx.jit.ffcx_jit``, the one door to FFCx's cache and compiler). Beside each answer, the same
+answer from the command line in this run (``suture-fem run paper --set ... --no-pictures``, its own
+process; CPU from the children's rusage), whose results.json must equal the in-process answer to 1e-10
+(times and the process apart). Prints a table and the targets met or not; writes JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+T_START = time.process_time()
+ROOT = Path(__file__).resolve().parents[1]
+SETS = {"mesh.degree": 1, "mesh.refinement": 0}
+NOT_COMPARED = {"wall_time_s", "timings_s", "process"}
+
+
+class ImportCounter:
+    """A ``sys.meta_path`` finder that counts the imports not already done (it finds nothing itself)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.names: list[str] = []
+
+    def find_spec(self, name: str, path: Any = None, target: Any = None) -> None:
+        self.count += 1
+        self.names.append(name)
+
+
+IMPORTS = ImportCounter()
+sys.meta_path.insert(0, IMPORTS)
+
+
+class Meter:
+    """CPU seconds and calls of wrapped functions, by name (nested calls of one name counted once)."""
+
+    def __init__(self) -> None:
+        self.cpu: dict[str, float] = {}
+        self.calls: dict[str, int] = {}
+        self._depth: dict[str, int] = {}
+
+    def wrap(self, owner: Any, attr: str, name: str) -> None:
+        inner = getattr(owner, attr)
+
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            self.calls[name] = self.calls.get(name, 0) + 1
+            self._depth[name] = self._depth.get(name, 0) + 1
+            t0 = time.process_time()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self._depth[name] -= 1
+                if self._depth[name] == 0:
+                    self.cpu[name] = self.cpu.get(name, 0.0) + time.process_time() - t0
+
+        setattr(owner, attr, timed)
+
+    def take(self) -> tuple[dict[str, float], dict[str, int]]:
+        """The CPU and calls since the last take."""
+        cpu, calls = dict(self.cpu), dict(self.calls)
+        self.cpu.clear()
+        self.calls.clear()
+        return cpu, calls
+
+
+def install(meter: Meter) -> None:
+    """Wrap the parts timed and counted (after the first import of the package: the first answer pays it)."""
+    import dolfinx.jit
+
+    from suture_fem.geometry import mesh as meshmod
+    from suture_fem.outputs.critical_distance import CriticalDistance
+    from suture_fem.outputs.evaluate import Outputs
+    from suture_fem.solve.newton import NewtonSolver
+
+    meter.wrap(dolfinx.jit, "ffcx_jit", "form_loading")
+    meter.wrap(meshmod, "scene_mesh", "meshing")
+    meter.wrap(NewtonSolver, "solve", "newton")
+    meter.wrap(Outputs, "evaluate", "outputs")
+    meter.wrap(Outputs, "thread_end_displacement_mm", "thread_end")
+    meter.wrap(CriticalDistance, "_measure", "critical_distance")
+
+
+def cli_answer(scale: float, out: Path) -> dict[str, Any]:
+    """The same answer from the command line (its own process): results.json and the CPU it took."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    sets = [a for k, v in {**SETS, "materials.tissue_scale": scale}.items() for a in ("--set", f"{k}={v}")]
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    proc = subprocess.run([sys.executable, "-m", "suture_fem.cli", "run", "paper", *sets, "--no-pictures", "--out",
+                           str(out)], env=env, cwd=ROOT, capture_output=True, text=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise SystemExit(f"suture-fem run exited {proc.returncode}: {proc.stderr[-2000:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"cpu_s": cpu, "results": json.loads((out / "results.json").read_text())}
+
+
+def largest_difference(a: Any, b: Any, path: str = "") -> tuple[float, str]:
+    """The largest relative difference of two results.json forms, and where; inf where they differ otherwise."""
+    if isinstance(a, dict):
+        if set(a) - NOT_COMPARED != set(b) - NOT_COMPARED:
+            return float("inf"), f"{path}: keys"
+        found = [largest_difference(a[k], b[k], f"{path}.{k}") for k in set(a) - NOT_COMPARED]
+        return max(found, default=(0.0, path))
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        if len(a) != len(b):
+            return float("inf"), f"{path}: length"
+        return max((largest_difference(x, y, f"{path}[{i}]") for i, (x, y) in enumerate(zip(a, b))),
+                   default=(0.0, path))
+    if isinstance(a, float) and isinstance(b, (int, float)) and not isinstance(b, bool):
+        return (abs(a - b) / max(abs(a), abs(b), 1e-300), path) if a != b else (0.0, path)
+    return (0.0, path) if a == b else (float("inf"), path)
+
+
+def in_process(answers: int) -> tuple[list[dict[str, Any]], list[float]]:
+    """The first answer and the later ones, each with its CPU split and counters."""
+    from mpi4py import MPI
+
+    from suture_fem import Model, Scene
+
+    meter = Meter()
+    install(meter)
+    scales = [1.0] + [round(0.8 + 0.45 * i / max(answers - 1, 1), 4) for i in range(answers)]
+    rows = []
+    for i, scale in enumerate(scales):
+        imports0 = IMPORTS.count
+        t0 = time.process_time()
+        if i == 0:
+            model = Model(Scene.builtin("paper").with_values(SETS), MPI.COMM_SELF)
+        else:
+            model.set({"materials.tissue_scale": scale})
+        results = model.solve().to_dict()
+        cpu = time.process_time() - (T_START if i == 0 else t0)
+        parts, calls = meter.take()
+        outputs = parts.get("outputs", 0.0) + parts.get("thread_end", 0.0)
+        rows.append({"answer": i, "tissue_scale": scale, "cpu_s": cpu, "newton_s": parts.get("newton", 0.0),
+                     "outputs_s": outputs, "critical_distance_s": parts.get("critical_distance", 0.0),
+                     "other_s": cpu - parts.get("newton", 0.0) - outputs, "imports": IMPORTS.count - imports0,
+                     "meshing_calls": calls.get("meshing", 0), "form_loading_calls": calls.get("form_loading", 0),
+                     "usum_mm": results["usum_mm"], "newton_iterations": results["newton_iterations"],
+                     "results": results})
+    return rows, scales
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--answers", type=int, default=10, help="later answers (default 10)")
+    parser.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "many_answers"))
+    args = parser.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows, scales = in_process(args.answers)
+    for row, scale in zip(rows, scales):
+        cli = cli_answer(scale, out / f"cli_{row['answer']}")
+        row["cli_cpu_s"] = cli["cpu_s"]
+        row["difference"], row["difference_at"] = largest_difference(row.pop("results"), cli["results"])
+    print(table(rows))
+    verdict = targets(rows[1:])
+    for line in verdict["lines"]:
+        print(line)
+    record = {"scene": "paper", "sets": SETS, "rows": rows, "targets": verdict["met"],
+              "python": sys.version.split()[0], "load": os.getloadavg()}
+    (out / "many_answers.json").write_text(json.dumps(record, indent=2) + "\n")
+    print(f"wrote {out / 'many_answers.json'}")
+    return 0
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    head = (f"{'answer':>6} {'scale':>6} {'CPU s':>7} {'Newton':>7} {'outputs':>7} {'(CD)':>6} {'other':>6} "
+            f"{'out %':>6} {'imports':>7} {'meshes':>6} {'forms':>5} {'CLI CPU':>7} {'ratio':>6} {'max rel diff':>12}")
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        lines.append(f"{r['answer']:>6} {r['tissue_scale']:>6.3f} {r['cpu_s']:>7.2f} {r['newton_s']:>7.2f} "
+                     f"{r['outputs_s']:>7.2f} {r['critical_distance_s']:>6.2f} {r['other_s']:>6.2f} "
+                     f"{100 * r['outputs_s'] / r['cpu_s']:>5.1f}% {r['imports']:>7d} {r['meshing_calls']:>6d} "
+                     f"{r['form_loading_calls']:>5d} {r['cli_cpu_s']:>7.2f} {r['cpu_s'] / r['cli_cpu_s']:>6.2f} "
+                     f"{r['difference']:>12.2e}")
+    return "\n".join(lines)
+
+
+def targets(later: list[dict[str, Any]]) -> dict[str, Any]:
+    """The issue's targets for the later answers, each met or not, with the numbers."""
+    met = {
+        "no_meshing_forms_imports": all(r["meshing_calls"] == 0 and r["form_loading_calls"] == 0 and r["imports"] == 0
+                                        for r in later),
+        "at_most_half_the_cli_cpu": all(r["cpu_s"] <= 0.5 * r["cli_cpu_s"] for r in later),
+        "outputs_at_most_15_percent": all(r["outputs_s"] <= 0.15 * r["cpu_s"] for r in later),
+        "equal_to_the_cli_to_1e-10": all(r["difference"] <= 1e-10 for r in later),
+    }
+    worst_ratio = max(r["cpu_s"] / r["cli_cpu_s"] for r in later)
+    worst_share = max(r["outputs_s"] / r["cpu_s"] for r in later)
+    lines = [f"target {k}: {'met' if v else 'NOT met'}" for k, v in met.items()]
+    lines.append(f"  later answers: CPU / CLI CPU at most {worst_ratio:.2f}; outputs at most {100 * worst_share:.1f} % "
+                 f"of an answer; largest relative difference from the CLI {max(r['difference'] for r in later):.1e}")
+    return {"met": met, "lines": lines}
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -2,8 +2,8 @@
 
 A :class:`Snapshot` copies what the outputs of a state read and the load ramp changes: the unknowns
 (ghosts included), the pull's traction, the weight's factor, a rigid suture's axial motion, a
-Coulomb thread's frozen bound and, with inertia, the time history (w_n, v_n, a_n). Restoring one
-makes every output, picture and sensitivity of that state what it was when the state was reported
+Coulomb thread's frozen bound, a moved end's displacement and, with inertia, the time history (w_n,
+v_n, a_n). Restoring one makes every output, picture and sensitivity of that state what it was when the state was reported
 (:meth:`suture_fem.model.Model.reports`): the same arrays, so the same numbers, bit for bit.
 """
 
@@ -35,6 +35,7 @@ class Snapshot:
     rigid: Any
     bound: np.ndarray | None
     history: tuple[np.ndarray, ...] | None
+    end: float | None = None
 
     @classmethod
     def take(cls, physics: Any, force_n: float) -> Snapshot:
@@ -48,6 +49,7 @@ class Snapshot:
             rigid=_value(physics.rigid_displacement),
             bound=physics.friction.bound.copy() if physics.friction is not None else None,
             history=tuple(f.x.array.copy() for f in (dyn.w_n, dyn.v_n, dyn.a_n)) if dyn is not None else None,
+            end=physics.control.d if physics.control is not None else None,
         )
 
     def restore(self, physics: Any) -> None:
@@ -59,6 +61,8 @@ class Snapshot:
         _set(physics.rigid_displacement, self.rigid)
         if self.bound is not None:
             physics.friction.bound = self.bound.copy()
+        if self.end is not None:  # displacement control: where the pulled end was
+            physics.control.set(self.end)
         if self.history is not None:
             dyn = physics.dynamics
             for f, kept in zip((dyn.w_n, dyn.v_n, dyn.a_n), self.history):

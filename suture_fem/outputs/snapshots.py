@@ -3,8 +3,9 @@
 A :class:`Snapshot` copies what the outputs of a state read and the load ramp changes: the unknowns
 (ghosts included), the pull's traction, the weight's factor, a rigid suture's axial motion, a
 Coulomb thread's frozen bound, a moved end's displacement and, with inertia, the time history (w_n,
-v_n, a_n). Restoring one makes every output, picture and sensitivity of that state what it was when the state was reported
-(:meth:`suture_fem.model.Model.reports`): the same arrays, so the same numbers, bit for bit.
+v_n, a_n). Restoring one makes every output, picture and sensitivity of that state what it was when
+the state was reported (:meth:`suture_fem.model.Model.reports`): the same arrays, so the same numbers,
+bit for bit.
 """
 
 from __future__ import annotations

@@ -49,7 +49,7 @@ def field_section(state: Any, deformed: bool = True) -> Any:
     if isinstance(state, pv.DataSet):
         half = state
     else:
-        half = plots.field_grid(getattr(state, "outputs", state))
+        half = plots.field_grid(state)
         if half is None:
             return None
     grid = plots.full_section(half, deformed)

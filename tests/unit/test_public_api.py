@@ -10,9 +10,9 @@ from tests.conftest import ROOT
 
 
 def test_every_public_name_is_importable_from_the_package():
-    assert suture_fem.__all__ == ["Model", "Results", "Scene", "SceneError", "SolveStopped", "__version__",
-                                  "field_panels", "field_section", "plot_field", "plot_force_displacement",
-                                  "render_usum"]
+    assert suture_fem.__all__ == [
+        "Model", "Results", "Scene", "SceneError", "SolveStopped", "__version__",
+        "field_grid", "field_panels", "field_section", "plot_field", "plot_force_displacement", "render_usum"]
     for name in suture_fem.__all__:
         assert getattr(suture_fem, name) is not None, name
     from suture_fem.model import Model

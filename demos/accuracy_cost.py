@@ -43,42 +43,37 @@
 import json
 import math
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-from mpi4py import MPI
-
-from suture_fem.studies.convergence.analysis import analyse
-from suture_fem.studies.convergence.ladder import Ladder, solve_ladder
-from suture_fem.studies.convergence.report import write_ledger
-from suture_fem.support.logging import setup_logging
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
-comm = MPI.COMM_WORLD
-setup_logging(comm)
+SUTURE_FEM = str(Path(sys.executable).with_name("suture-fem"))  # the command of this kernel's environment
 
 # %% [markdown]
 # ## The ladder
 #
 # One cone pulled to 1 N (the paper scene with `geometry.cones=1`), so that the finest rung stays
 # affordable. The full notebook solves degree 1 at refinements 0-2 and degree 2 at refinements 0-1
-# (a few minutes on 2 cores); under `CI` only degree 1, on a base mesh twice as coarse. Rungs run
-# in this process (`inprocess=True`), as `suture-fem convergence --inprocess` does.
+# (a few minutes on 2 cores); under `CI` only degree 1, on a base mesh twice as coarse. The ledger
+# is a command: `suture-fem convergence` solves the rungs (in its own process, `--inprocess`: one
+# after the other there) and writes `ledger.json`, `ledger.md` and `ledger.png`, which we read.
 
 # %%
 overrides = ["geometry.cones=1", "loading.force_n=1.0", "loading.report_forces_n=[]",
              "solver.initial_step=0.25", "solver.max_step=0.5"]
 if CI:
     overrides += ["mesh.size_suture_mm=0.3", "mesh.size_rim_mm=0.1", "mesh.size_far_mm=2.4"]
-    degrees, caps = [1], {}
+    ladder_args = ["--degrees", "1"]
 else:
-    degrees, caps = [1, 2], {2: 1}
-ladder = Ladder("paper", overrides, degrees, [0, 1, 2], [None], [1.0], caps=caps)
+    ladder_args = ["--degrees", "1,2", "--cap", "2=1"]
 out = Path("out/accuracy_cost")
-rungs = solve_ladder(ladder, out, comm, inprocess=True, redo=False)
-analysis = analyse(rungs, [1.0])
-if comm.rank == 0:
-    write_ledger(out, "one cone at 1 N", ladder, rungs, analysis)
+command = [SUTURE_FEM, "convergence", "paper", *[a for o in overrides for a in ("--set", o)], *ladder_args,
+           "--refinements", "0,1,2", "--forces", "1.0", "--inprocess", "--title", "one cone at 1 N", "--out", str(out)]
+done = subprocess.run(command, capture_output=True, text=True)
+print(done.stdout.strip() or done.stderr[-3000:])
 ledger = json.loads((out / "ledger.json").read_text())
 
 # %% [markdown]

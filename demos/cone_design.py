@@ -49,39 +49,34 @@
 
 # %%
 # %matplotlib inline
-import logging
 import os
 import time
 from pathlib import Path
 
-import _pictures as pic  # demos/_pictures.py: pyvista rendering of a solved state
 import matplotlib.colors as mcolors
 import matplotlib.pyplot as plt
 import numpy as np
-from mpi4py import MPI
 
-from suture_fem.pipeline import load_scene, run_scene
-from suture_fem.support.logging import setup_logging
+import suture_fem as sf
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation and fewer cases
-comm = MPI.COMM_WORLD
-setup_logging(comm)
-logging.getLogger("suture_fem").setLevel(logging.WARNING)  # one line per design below, not per load step
 
 FORCE_N = 1.0
-MESH = ["mesh.degree=1", "mesh.refinement=0"] if CI else ["mesh.degree=2", "mesh.refinement=0"]
+MESH = {"mesh.degree": 1 if CI else 2, "mesh.refinement": 0}
 HOLLOW_CONES = [0, 2, 4] if CI else list(range(9))
 FULL_CONES = [2, 4] if CI else list(range(1, 9))
 SPACINGS_MM = [4.0, 6.25, 9.0] if CI else [3.5, 4.5, 6.25, 9.0, 12.0]
 PICTURE_CONES = [0, 2, 4] if CI else [0, 2, 4, 8]
-DEFAULT_SPACING = load_scene("paper").geometry.cone_spacing_mm
+PAPER_SCENE = sf.Scene.builtin("paper")
+DEFAULT_SPACING = PAPER_SCENE.geometry.cone_spacing_mm
 OUT = Path("out/cone_design")
 
 # %% [markdown]
 # ## Solve every design
 #
 # Each design is the built-in `paper` scene with a few keys changed (`--set` on the command line),
-# solved on a load ramp to 1 N. We keep the solved state of a few designs for pictures.
+# solved on a load ramp to 1 N. The geometry changes from one design to the next, so each is a Model
+# of its own; we keep the solved state of a few designs for pictures.
 
 # %%
 runs, deformed, undeformed = {}, {}, {}
@@ -91,22 +86,21 @@ def solve(cones, kind="hollow", spacing=DEFAULT_SPACING):
     key = (cones, kind, spacing)
     if key in runs:
         return runs[key]
-    scene = load_scene("paper", MESH + [
-        f"geometry.cones={cones}", f'geometry.cone_kind="{kind}"', f"geometry.cone_spacing_mm={spacing}",
-        f"loading.force_n={FORCE_N}", "loading.report_forces_n=[]"])
-
-    def keep(force_n, outputs):
-        if kind == "hollow" and spacing == DEFAULT_SPACING and cones in PICTURE_CONES:
-            deformed[key] = pic.section(outputs)
-        if cones == 4 and spacing == DEFAULT_SPACING:
-            undeformed[key] = pic.section(outputs, deformed=False)
-
+    scene = PAPER_SCENE.with_values({
+        **MESH, "geometry.cones": cones, "geometry.cone_kind": kind, "geometry.cone_spacing_mm": spacing,
+        "loading.force_n": FORCE_N, "loading.report_forces_n": []})
     t0 = time.perf_counter()
-    res = run_scene(scene, OUT / f"{cones}_{kind}_{spacing:g}mm", comm, on_report=keep)
-    tissue = res["regions"]["tissue"]
-    print(f"{cones} {kind:6s} cones, spacing {spacing:5.2f} mm: USUM {res['usum_mm']:6.3f} mm, "
-          f"tissue SEQV {tissue['seqv_pa'] / 1e3:7.1f} kPa (outside rims {tissue['seqv_outside_rim_pa'] / 1e3:6.1f}), "
-          f"EPTOEQV {tissue['eptoeqv']:.3f}  [{res['cells']} cells, {time.perf_counter() - t0:.0f} s]")
+    model = sf.Model(scene)
+    res = model.solve(OUT / f"{cones}_{kind}_{spacing:g}mm")
+    if kind == "hollow" and spacing == DEFAULT_SPACING and cones in PICTURE_CONES:
+        deformed[key] = sf.field_section(model)  # the model's solved state, at the final force
+    if cones == 4 and spacing == DEFAULT_SPACING:
+        undeformed[key] = sf.field_section(model, deformed=False)
+    print(f"{cones} {kind:6s} cones, spacing {spacing:5.2f} mm: USUM {res.usum_mm:6.3f} mm, "
+          f"tissue SEQV {res.peak('seqv_pa', 'tissue').value / 1e3:7.1f} kPa "
+          f"(outside rims {res.peak('seqv_outside_rim_pa', 'tissue').value / 1e3:6.1f}), "
+          f"EPTOEQV {res.peak('eptoeqv', 'tissue').value:.3f}  [{res.run['cells']} cells, "
+          f"{time.perf_counter() - t0:.0f} s]")
     runs[key] = res
     return res
 
@@ -125,14 +119,16 @@ print(f"{len(runs)} designs in {time.perf_counter() - t_start:.0f} s")
 def series(kind, cones=None, spacings=None):
     """Arrays of the outputs along a series of designs (by cone count, or by spacing for 4 cones)."""
     keys = [(n, kind, DEFAULT_SPACING) for n in cones] if cones is not None else [(4, kind, s) for s in spacings]
-    tissue = [runs[k]["regions"]["tissue"] for k in keys]
+    def tissue(measure):
+        return np.array([runs[k].peak(measure, "tissue").value for k in keys])
+
     return {
-        "usum": np.array([runs[k]["usum_mm"] for k in keys]),
-        "end": np.array([runs[k]["thread_end_displacement_mm"] for k in keys]),
-        "seqv": np.array([t["seqv_pa"] for t in tissue]) / 1e3,
-        "seqv_far": np.array([t["seqv_outside_rim_pa"] for t in tissue]) / 1e3,
-        "epto": np.array([t["eptoeqv"] for t in tissue]),
-        "epto_far": np.array([t["eptoeqv_outside_rim"] for t in tissue]),
+        "usum": np.array([runs[k].usum_mm for k in keys]),
+        "end": np.array([runs[k].at_forces[-1].thread_end_displacement_mm for k in keys]),
+        "seqv": tissue("seqv_pa") / 1e3,
+        "seqv_far": tissue("seqv_outside_rim_pa") / 1e3,
+        "epto": tissue("eptoeqv"),
+        "epto_far": tissue("eptoeqv_outside_rim"),
     }
 
 
@@ -176,10 +172,10 @@ plt.show()
 fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
 colours = plt.cm.viridis(np.linspace(0, 0.9, len(HOLLOW_CONES)))
 for n, colour in zip(HOLLOW_CONES, colours):
-    fd = np.array(runs[(n, "hollow", DEFAULT_SPACING)]["force_displacement"])
+    fd = np.array(runs[(n, "hollow", DEFAULT_SPACING)].force_displacement)
     ax.plot(fd[:, 1], fd[:, 0], "o-", ms=3, color=colour, label=f"{n} hollow")
     if (n, "full", DEFAULT_SPACING) in runs:
-        fd = np.array(runs[(n, "full", DEFAULT_SPACING)]["force_displacement"])
+        fd = np.array(runs[(n, "full", DEFAULT_SPACING)].force_displacement)
         ax.plot(fd[:, 1], fd[:, 0], "--", color=colour)
 ax.plot([], [], "k--", label="full (same colour)")
 ax.set_xlabel("thread-end axial displacement (mm)")
@@ -199,7 +195,7 @@ plt.show()
 # %%
 grids = [deformed[(n, "hollow", DEFAULT_SPACING)] for n in PICTURE_CONES]
 top = max(g["usum_mm"].max() for g in grids)
-fig = pic.field_panels(grids, [f"{n} hollow cones" for n in PICTURE_CONES], "usum_mm",
+fig = sf.field_panels(grids, [f"{n} hollow cones" for n in PICTURE_CONES], "usum_mm",
                        "USUM, |u| (mm)", mcolors.Normalize(0.0, top))
 plt.show()
 
@@ -211,11 +207,11 @@ plt.show()
 # cone the hypodermis is shielded.
 
 # %%
-cone = runs[(4, "hollow", DEFAULT_SPACING)]["geometry"]["cones"][-1]
+cone = runs[(4, "hollow", DEFAULT_SPACING)].run["geometry"]["cones"][-1]  # the mesh's cones, as built
 zoom = (cone["base_z_mm"] - 1.0, cone["apex_z_mm"] + 1.0, -1.3, 1.3)
 pair = [undeformed[(4, kind, DEFAULT_SPACING)] for kind in ("hollow", "full")]
-vm_top = max(runs[(4, kind, DEFAULT_SPACING)]["regions"]["tissue"]["seqv_pa"] for kind in ("hollow", "full")) / 1e3
-fig = pic.field_panels(pair, ["4 hollow cones", "4 full cones"], "von_mises_kpa", "tissue von Mises stress (kPa)",
+vm_top = max(runs[(4, kind, DEFAULT_SPACING)].peak("seqv_pa", "tissue").value for kind in ("hollow", "full")) / 1e3
+fig = sf.field_panels(pair, ["4 hollow cones", "4 full cones"], "von_mises_kpa", "tissue von Mises stress (kPa)",
                        mcolors.LogNorm(vm_top / 1e3, vm_top), tissue_only=True, bounds=zoom,
                        xlabel="z (mm), undeformed positions", width_in=8.0)
 plt.show()
@@ -256,14 +252,14 @@ print("full against hollow (USUM, peak tissue SEQV):",
       ", ".join(f"{n} cones {du:+.1%}, {ds:+.1%}" for n, (du, ds) in full_vs_hollow.items()))
 print("USUM by spacing (mm):", ", ".join(f"{s:g} mm: {u:.3f}" for s, u in zip(SPACINGS_MM, spaced["usum"])))
 print("USUM - thread-end displacement, largest:",
-      f"{max(abs(r['usum_mm'] - r['thread_end_displacement_mm']) for r in runs.values()):.1e} mm")
+      f"{max(abs(r.usum_mm - r.at_forces[-1].thread_end_displacement_mm) for r in runs.values()):.1e} mm")
 ratio_n = [n for n in (1, 2, 3) if n in HOLLOW_CONES]
 usum_4 = hollow["usum"][HOLLOW_CONES.index(4)]
 print("USUM(n) / USUM(4): ours",
       ", ".join(f"{n}: {hollow['usum'][HOLLOW_CONES.index(n)] / usum_4:.2f}" for n in ratio_n),
       "| paper", ", ".join(f"{n}: {PAPER['usum'][n] / PAPER['usum'][4]:.2f}" for n in ratio_n))
 
-assert all(r["status"] == "converged" for r in runs.values())
+assert all(r.status == "converged" for r in runs.values())
 assert np.all(np.diff(hollow["usum"]) < 0) and np.all(np.diff(full["usum"]) < 0)
 assert gain[0] > gain[-1]
 assert np.all(np.diff(hollow["seqv_far"]) < 0) and np.all(np.diff(hollow["epto_far"]) < 0)

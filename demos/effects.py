@@ -14,8 +14,8 @@
 # # Effects: quasi-static against a damped transient hold, rigid against elastic suture
 #
 # A scene's `[effects]` section names the physics it needs (`suture_fem/physics/effects/`); what it leaves
-# off is never built, and `results.json` records under `effects` what was built and what was left
-# out, and why. Two questions a user asks:
+# off is never built, and the results record under `effects` (`results.effects`, results.json's
+# `effects`) what was built and what was left out, and why. Two questions a user asks:
 #
 # **Does inertia matter?** With inertia on, the solver integrates
 #
@@ -43,26 +43,24 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
-from mpi4py import MPI
 
-from suture_fem.pipeline import load_scene, run_scene
-from suture_fem.support.logging import setup_logging
+import suture_fem as sf
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
-comm = MPI.COMM_WORLD
-setup_logging(comm)
 out = Path("out/effects")
 
 # one cone, linear elements: the time step is set by the tissue's slowest mode, not by the mesh
 force = 0.5 if CI else 1.0
 hold = 0.06 if CI else 0.2
-base = ["geometry.cones=1", "mesh.degree=1", "loading.report_forces_n=[]", f"loading.force_n={force}",
-        "loading.ramp_s=0.02", f"loading.hold_s={hold}"]
-DAMPING = "effects.rayleigh_mass_per_s=420"
+base = sf.Scene.builtin("paper").with_values({
+    "geometry.cones": 1, "mesh.degree": 1, "loading.report_forces_n": [], "loading.force_n": force,
+    "loading.ramp_s": 0.02, "loading.hold_s": hold})
+DAMPING = {"effects.rayleigh_mass_per_s": 420.0}
 
 
 def solve(name, extra):
-    return run_scene(load_scene("paper", base + extra), out / name, comm)
+    """One scene's Model and solve: an effect changes the forms, so each variant is a Model of its own."""
+    return sf.Model(base.with_values(extra)).solve(out / name)
 
 
 # %% [markdown]
@@ -70,16 +68,16 @@ def solve(name, extra):
 
 # %%
 runs = {
-    "quasi-static": solve("quasi_static", []),
-    "inertia, undamped": solve("undamped", ["effects.inertia=true"]),
-    "inertia, damped": solve("damped", ["effects.inertia=true", DAMPING]),
+    "quasi-static": solve("quasi_static", {}),
+    "inertia, undamped": solve("undamped", {"effects.inertia": True}),
+    "inertia, damped": solve("damped", {"effects.inertia": True, **DAMPING}),
 }
-qs = runs["quasi-static"]["usum_mm"]
+qs = runs["quasi-static"].usum_mm
 ramp = 0.02
 fig, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
 for ax, window in zip(axes, ((0.0, ramp + hold), (ramp, ramp + hold))):
     for (label, res), style in zip(list(runs.items())[1:], ("-", "--")):
-        h = np.array(res["time_history"])
+        h = np.array(res.time_history)
         ax.plot(h[:, 0] * 1e3, h[:, 2], style, label=label)
     ax.axhline(qs, color="k", lw=0.8, label=f"quasi-static at {force:g} N")
     ax.set_xlim(window[0] * 1e3, window[1] * 1e3)
@@ -92,54 +90,54 @@ axes[0].legend()
 plt.show()
 
 # %% [markdown]
-# ## What `results.json` says was built
+# ## What the results say was built
 #
-# The `effects` record of each run: the time scheme and damping when inertia is on; for the
-# quasi-static run, that the hold was skipped and why (no rate-dependent effect: the state at the end
-# of the hold is the state at the peak force).
+# The `effects` record of each run (`results.effects`, results.json's `effects`): the time scheme
+# and damping when inertia is on; for the quasi-static run, that the hold was skipped and why (no
+# rate-dependent effect: the state at the end of the hold is the state at the peak force).
 
 # %%
 for label, res in runs.items():
-    e = res["effects"]
+    e = res.effects
     inertia = e["inertia"]
     print(f"{label}: inertia {inertia['on']}"
           + (f" ({inertia['time_scheme']}, dt {inertia['time_step_s'] * 1e3:g} ms, "
              f"alpha {inertia['rayleigh_mass_per_s']:g}/s)" if inertia["on"] else "")
           + f"; hold solved: {e['hold']['solved']} ({e['hold'].get('reason') or e['hold'].get('left_out')})")
-print(json.dumps(runs["inertia, damped"]["effects"], indent=1))
+print(json.dumps(runs["inertia, damped"].effects, indent=1))
 
 # %% [markdown]
 # ## Rigid against elastic suture
 
 # %%
-rigid = solve("rigid", ["effects.suture=\"rigid\""])
+rigid = solve("rigid", {"effects.suture": "rigid"})
 elastic = runs["quasi-static"]
 print(f"{'suture':8} {'dofs':>6} {'unknowns':>9} {'USUM (mm)':>10} {'tissue USUM (mm)':>17} {'Newton':>7}")
 for label, res in (("elastic", elastic), ("rigid", rigid)):
-    print(f"{label:8} {res['dofs']:6d} {res['unknowns']:9d} {res['usum_mm']:10.4f} "
-          f"{res['regions']['tissue']['usum_mm']:17.4f} {res['newton_iterations']:7d}")
-print("rigid suture record:", rigid["effects"]["suture"])
+    print(f"{label:8} {res.run['dofs']:6d} {res.run['unknowns']:9d} {res.usum_mm:10.4f} "
+          f"{res.peak('usum_mm', 'tissue').value:17.4f} {res.solver.newton_iterations:7d}")
+print("rigid suture record:", rigid.effects["suture"])
 
 # %% [markdown]
 # ## Checks
 
 # %%
-hist = {label: np.array(res["time_history"]) for label, res in runs.items() if label != "quasi-static"}
+hist = {label: np.array(res.time_history) for label, res in runs.items() if label != "quasi-static"}
 late = {label: h[h[:, 0] >= ramp + hold / 2, 2] for label, h in hist.items()}  # the second half of the hold
 swing = {label: (v.max() - v.min()) / qs for label, v in late.items()}
-end = {label: runs[label]["usum_mm"] / qs - 1 for label in hist}
+end = {label: runs[label].usum_mm / qs - 1 for label in hist}
 peak_over = {label: h[:, 2].max() / qs - 1 for label, h in hist.items()}
-d_usum = rigid["usum_mm"] / elastic["usum_mm"] - 1
+d_usum = rigid.usum_mm / elastic.usum_mm - 1
 print("overshoot above quasi-static:", ", ".join(f"{k}: {v:+.2%}" for k, v in peak_over.items()))
 print("swing over the second half of the hold / quasi-static:", ", ".join(f"{k}: {v:.3%}" for k, v in swing.items()))
 print("end of hold against quasi-static:", ", ".join(f"{k}: {v:+.3%}" for k, v in end.items()))
-print(f"rigid suture: {rigid['unknowns']} unknowns against {elastic['unknowns']}, USUM {d_usum:+.2%}")
+print(f"rigid suture: {rigid.run['unknowns']} unknowns against {elastic.run['unknowns']}, USUM {d_usum:+.2%}")
 
-assert all(res["status"] == "converged" for res in (*runs.values(), rigid))
-assert not runs["quasi-static"]["effects"]["hold"]["solved"] and runs["inertia, damped"]["effects"]["hold"]["solved"]
+assert all(res.status == "converged" for res in (*runs.values(), rigid))
+assert not runs["quasi-static"].effects["hold"]["solved"] and runs["inertia, damped"].effects["hold"]["solved"]
 assert swing["inertia, damped"] < swing["inertia, undamped"]
 assert abs(end["inertia, damped"]) < 0.01
-assert rigid["unknowns"] < elastic["unknowns"] and rigid["usum_mm"] < elastic["usum_mm"]
+assert rigid.run["unknowns"] < elastic.run["unknowns"] and rigid.usum_mm < elastic.usum_mm
 
 # %% [markdown]
 # ## Conclusion

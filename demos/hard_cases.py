@@ -16,9 +16,10 @@
 # A run of suture_fem ends one of two ways: it **converges** (exit code 0, finite outputs, the
 # fixed surface's reaction balancing the force), or it **stops with a diagnosis** (exit code 3, a
 # named cause, every converged load step kept in `results.json`). Never a third way: a wrong number
-# without a warning. This notebook drives three hard cases through `suture_fem/studies/hardcases.py` (which
-# classifies a run exactly that way; `benchmarks/hardcases.py` runs the whole matrix) and
-# `suture-fem maxload` (`suture_fem/studies/maxload.py`).
+# without a warning. This notebook drives three hard cases through the Python API (`sf.Model`:
+# `solve()` returns the results or raises `sf.SolveStopped`, the command line's exit code 3, with the
+# converged part kept in `model.results`) and the command `suture-fem maxload`
+# (`benchmarks/hardcases.py` runs the whole matrix of hard cases).
 #
 # ## 1. Near-incompressible tissue: volumetric locking
 #
@@ -41,21 +42,35 @@
 # %matplotlib inline
 import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-from mpi4py import MPI
 
-from suture_fem.pipeline import load_scene
-from suture_fem.studies import hardcases as hc
-from suture_fem.studies import maxload
-from suture_fem.support.logging import setup_logging
+import suture_fem as sf
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
-comm = MPI.COMM_WORLD
-setup_logging(comm)
 out = Path("out/hard_cases")
-ONE_CONE = ("geometry.cones=1", "loading.report_forces_n=[]")
+ONE_CONE = sf.Scene.builtin("paper").with_values({"geometry.cones": 1, "loading.report_forces_n": []})
+#: The tissue's volumetric coefficients 1/d (paper Table 3), scaled together below.
+VOLUMETRIC = ("hypodermis.inv_d1", "hypodermis.inv_d2", "dermis.inv_d1", "dermis.inv_d2", "epidermis.inv_d")
+BALANCE_TOL = 1e-6  # |R + F| / F of a converged run
+
+
+def poisson(factor):
+    """Initial Poisson ratio of the hypodermis with every 1/d times factor (K = 2/d1, mu = 2 C10)."""
+    bulk, mu = 2 * ONE_CONE.get("materials.hypodermis.inv_d1") * factor, 2 * ONE_CONE.get("materials.hypodermis.c10")
+    return (3 * bulk - 2 * mu) / (2 * (3 * bulk + mu))
+
+
+def solve(scene, folder):
+    """The results of one scene, converged or stopped (a SolveStopped keeps the converged part)."""
+    model = sf.Model(scene)
+    try:
+        return model.solve(folder)
+    except sf.SolveStopped:
+        return model.results
 
 # %%
 factors = (1000,) if CI else (1, 10, 100, 1000)
@@ -64,22 +79,22 @@ formulations = ((1, "displacement"), (2, "mixed"))
 locking = {}
 for factor in factors:
     for degree, form in formulations:
-        name = f"K x{factor} P{degree} {form}"
-        overrides = (*hc.bulk(factor), *ONE_CONE, f"loading.force_n={force}", f"mesh.degree={degree}",
-                     f"effects.incompressibility=\"{form}\"")
-        locking[(factor, degree, form)] = hc.run_case(name, overrides, out / name.replace(" ", "_"), inprocess=True)
+        values = {f"materials.{k}": ONE_CONE.get(f"materials.{k}") * factor for k in VOLUMETRIC}
+        scene = ONE_CONE.with_values({**values, "loading.force_n": force, "mesh.degree": degree,
+                                      "effects.incompressibility": form})
+        locking[(factor, degree, form)] = solve(scene, out / f"K_x{factor}_P{degree}_{form}")
 
-print(f"{'1/d factor':>10} {'1/2 - nu':>9} {'formulation':>18} {'outcome':>10} {'USUM (mm)':>10} {'dofs':>7} "
+print(f"{'1/d factor':>10} {'1/2 - nu':>9} {'formulation':>18} {'status':>10} {'USUM (mm)':>10} {'dofs':>7} "
       f"{'Newton':>7}")
-for (factor, degree, form), row in locking.items():
-    print(f"{factor:10d} {0.5 - hc.poisson(factor):9.2e} {f'P{degree} {form}':>18} {row['outcome']:>10} "
-          f"{row['usum_mm']:10.4f} {row['unknowns'] or 0:7d} {row['newton_iterations']:7d}")
+for (factor, degree, form), res in locking.items():
+    print(f"{factor:10d} {0.5 - poisson(factor):9.2e} {f'P{degree} {form}':>18} {res.status:>10} "
+          f"{res.usum_mm:10.4f} {res.run['unknowns']:7d} {res.solver.newton_iterations:7d}")
 
 # %%
 fig, ax = plt.subplots(figsize=(6.5, 4), layout="constrained")
 for degree, form in formulations:
-    nus = [1 / 2 - hc.poisson(f) for f in factors]
-    ax.plot(nus, [locking[(f, degree, form)]["usum_mm"] for f in factors], "o-", label=f"P{degree} {form}")
+    nus = [1 / 2 - poisson(f) for f in factors]
+    ax.plot(nus, [locking[(f, degree, form)].usum_mm for f in factors], "o-", label=f"P{degree} {form}")
 ax.set_xscale("log")
 ax.invert_xaxis()
 ax.set_xlabel("1/2 - ν of the hypodermis (toward incompressible →)")
@@ -97,18 +112,24 @@ plt.show()
 # no equilibrium beyond the force that brings some point to the limit. With $J_m$ lowered from the
 # paper's 1.2 to 0.05 the limit falls inside the ramp. The solver rejects any step that takes a
 # point past `solver.gent_limit_fraction` (0.99) of the limit, cuts the step, and when the step
-# falls below `solver.min_step` it stops: exit code 3, status "stopped", the cause `gent_limit`
-# with where it happened, and every converged step kept.
+# falls below `solver.min_step` it stops: `solve()` raises `sf.SolveStopped` (exit code 3 on the
+# command line), status "stopped", the cause `gent_limit` with where it happened, and every converged
+# step kept in `model.results` (and its results.json).
 
 # %%
-gent = ("materials.epidermis.jm=0.05", "mesh.degree=1", *ONE_CONE)
-stop = hc.run_case("Gent jm = 0.05", gent, out / "gent", inprocess=True)
-results = json.loads((out / "gent" / "results.json").read_text())
-print(f"exit code {stop['exit_code']}, outcome {stop['outcome']}, status {results['status']}")
-print(f"diagnosis: {json.dumps(results['diagnosis'], indent=1)}")
-print(f"converged load steps kept: {len(results['force_displacement'])}, the last at "
-      f"{results['force_displacement'][-1][0]:.5f} N, USUM {results['usum_mm']:.3f} mm, "
-      f"|R + F| / F = {results['force_balance_rel']:.1e}")
+GENT = {"materials.epidermis.jm": 0.05, "mesh.degree": 1}
+model = sf.Model(ONE_CONE.with_values(GENT))
+try:
+    model.solve(out / "gent")
+    stopped = None
+except sf.SolveStopped as stop:
+    stopped = stop
+results = model.results
+print(f"SolveStopped: {stopped is not None} (cause {getattr(stopped, 'cause', None)}), status {results.status}")
+print(f"diagnosis: {json.dumps(results.diagnosis.as_dict(), indent=1)}")
+print(f"converged load steps kept: {len(results.force_displacement)}, the last at "
+      f"{results.force_displacement[-1][0]:.5f} N, USUM {results.usum_mm:.3f} mm, "
+      f"|R + F| / F = {results.at_forces[-1]['force_balance_rel']:.1e}")
 
 # %% [markdown]
 # ## 3. The largest load: `suture-fem maxload`
@@ -117,30 +138,40 @@ print(f"converged load steps kept: {len(results['force_displacement'])}, the las
 # that the last converged force and the first failed one end less than `--tol` apart (a failing step
 # is halved until it is shorter than $2\,\mathrm{min\_step}\,F$, so $\mathrm{min\_step} = \mathrm{tol}/(2F)$).
 # A bracket caused by the Gent limit or an inverting element is a physical limit; a Newton or
-# linear-solver failure is reported as numerical, not as a limit of the tissue.
+# linear-solver failure is reported as numerical, not as a limit of the tissue. The search is a
+# command (here run from this kernel's environment); it writes its bracket to `maxload.json`.
 
 # %%
 tol = 0.05
-scene = load_scene("paper", list(gent))
-rec = maxload.max_load(scene, comm, up_to_n=4.0, tol_n=tol, out=out / "maxload")
+command = [str(Path(sys.executable).with_name("suture-fem")), "maxload", "paper",
+           *[a for k, v in {**GENT, "geometry.cones": 1, "loading.report_forces_n": "[]"}.items()
+             for a in ("--set", f"{k}={v}")],
+           "--up-to", "4", "--tol", str(tol), "--out", str(out / "maxload")]
+done = subprocess.run(command, capture_output=True, text=True)
+print(done.stdout.strip())
+rec = json.loads((out / "maxload" / "maxload.json").read_text())
 print(json.dumps({k: rec[k] for k in ("bracketed", "cause", "limit", "bracket_n", "width_n", "tolerance_n")}, indent=1))
 
 # %% [markdown]
 # ## Checks
 
 # %%
-mixed = {f: locking[(f, 2, "mixed")]["usum_mm"] for f in factors}
-p1 = {f: locking[(f, 1, "displacement")]["usum_mm"] for f in factors}
+mixed = {f: locking[(f, 2, "mixed")].usum_mm for f in factors}
+p1 = {f: locking[(f, 1, "displacement")].usum_mm for f in factors}
 stiffer = {f: p1[f] / mixed[f] for f in factors}
-stop_force = results["diagnosis"]["load_reached_n"]
+stop_force = results.diagnosis.load_reached_n
+balance = {key: max(r["force_balance_rel"] for r in res.at_forces) for key, res in locking.items()}
 print("USUM P1 displacement / P2 mixed, per 1/d factor:", ", ".join(f"x{f}: {v:.3f}" for f, v in stiffer.items()))
-print(f"Gent stop at {stop_force:.5f} N (attempted {results['diagnosis']['attempted_n']:.5f} N); "
+print(f"largest |R + F| / F of the locking runs: {max(balance.values()):.1e}")
+print(f"Gent stop at {stop_force:.5f} N (attempted {results.diagnosis.attempted_n:.5f} N); "
       f"maxload bracket {rec['bracket_n'][0]:.4f}-{rec['bracket_n'][1]:.4f} N, width {rec['width_n']:.4f} N <= {tol} N")
 
-assert all(row["outcome"] == "converged" for row in locking.values())
+assert all(res.status == "converged" for res in locking.values()) and max(balance.values()) < BALANCE_TOL
 assert stiffer[max(factors)] < 0.95  # P1 displacement locks: at least 5 % stiffer than the mixed formulation
-assert stop["exit_code"] == 3 and stop["outcome"] == "stopped" and results["diagnosis"]["cause"] == "gent_limit"
-assert 0 < stop_force < 4.0 and results["force_balance_rel"] < hc.BALANCE_TOL
+assert stopped is not None and stopped.cause == "gent_limit"
+assert results.status == "stopped" and results.diagnosis.cause == "gent_limit"
+assert 0 < stop_force < 4.0 and results.at_forces[-1]["force_balance_rel"] < BALANCE_TOL
+assert done.returncode == 0
 assert rec["bracketed"] and rec["cause"] == "gent_limit" and rec["limit"] == "physical"
 assert rec["width_n"] <= tol and rec["bracket_n"][0] <= stop_force <= rec["bracket_n"][1]
 
@@ -151,8 +182,8 @@ assert rec["width_n"] <= tol and rec["bracket_n"][0] <= stop_force <= rec["brack
 #   few times $10^{-6}$), the P1 displacement formulation gives a USUM clearly below the
 #   mixed P2/P1 formulation's (the ratio is printed under Checks): the tissue looks stiffer than it
 #   is. The mixed formulation is the one to trust for near-incompressible tissue; both converge.
-# * **The Gent limit stops the run, it does not break it.** With $J_m = 0.05$ the ramp ends with exit
-#   code 3, status "stopped", cause `gent_limit` and where in the epidermis it happened; the
+# * **The Gent limit stops the run, it does not break it.** With $J_m = 0.05$ the ramp ends with
+#   `sf.SolveStopped` (exit code 3), status "stopped", cause `gent_limit` and where in the epidermis it happened; the
 #   converged steps up to that force are kept and still balance the applied force.
 # * **maxload brackets that same limit.** Its bracket, narrower than the requested tolerance, contains
 #   the force at which the plain run stopped (printed): the largest load this scene carries is known

@@ -14,8 +14,9 @@
 # # Quickstart: one suture, pulled to 4 N
 #
 # This notebook runs the built-in `paper` scene (a 4-cone Silhouette Soft suture in a three-layer
-# facial tissue cylinder, Mousavi et al.), reads the `results.json` it writes, plots the
-# force-displacement curve and shows the displacement (USUM) and tissue stress fields.
+# facial tissue cylinder, Mousavi et al.) through the Python API (`import suture_fem as sf`), reads
+# the typed results, plots the force-displacement curve and shows the displacement (USUM) and tissue
+# stress fields.
 #
 # ## The model in a few equations
 #
@@ -46,63 +47,58 @@
 
 # %%
 # %matplotlib inline
-import json
 import os
 from pathlib import Path
 
-import _pictures as pic  # demos/_pictures.py: pyvista rendering of a solved state
 import matplotlib.colors as mcolors
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Image, display
-from mpi4py import MPI
 
-from suture_fem import plots
-from suture_fem.pipeline import load_scene, run_scene
-from suture_fem.support.logging import setup_logging
+import suture_fem as sf
 
 CI = bool(os.environ.get("CI"))  # CI runs every demo on a coarser discretisation
-comm = MPI.COMM_WORLD  # the library takes its communicator from the caller
-setup_logging(comm)  # the solver's progress, one line per load step
 
 # %% [markdown]
 # ## Run the built-in scene
 #
-# `load_scene` merges the scene on the documented defaults (`suture_fem/scene/defaults.toml`)
-# and validates it; `run_scene` meshes, solves the load ramp 0 → 4 N with outputs at 1, 2, 3 and
-# 4 N and writes `results.json`. The `on_report` hook hands over the solved state at each of those
-# forces, which we turn into pictures. (The same run from a shell: `suture-fem run paper`.)
+# `sf.Scene.builtin("paper")` is the scene on the documented defaults (`suture_fem/scene/defaults.toml`),
+# validated; `sf.Model(scene)` meshes it and builds the forms; `model.solve(out)` runs the load ramp
+# 0 → 4 N with outputs at 1, 2, 3 and 4 N, writes `out/results.json` (`results.to_dict()`) and
+# returns the typed `Results`. Afterwards `model.reports()` sets the model to the solved state of
+# each reported force in turn, which we turn into pictures. (The same run from a shell:
+# `suture-fem run paper`.)
 
 # %%
-overrides = ["mesh.degree=1"] if CI else []  # the paper scene uses quadratic elements
-scene = load_scene("paper", overrides)
+scene = sf.Scene.builtin("paper")
+if CI:
+    scene = scene.with_values({"mesh.degree": 1})  # the paper scene uses quadratic elements
 out = Path("out/quickstart")
+model = sf.Model(scene)
+results = model.solve(out)
 grids, sections = {}, {}  # half-sections as solved, full sections for the pictures
-
-
-def keep_section(force_n, outputs):
-    grids[round(force_n, 6)] = plots.field_grid(outputs)
-    sections[round(force_n, 6)] = pic.section(grids[round(force_n, 6)])
-
-
-results = run_scene(scene, out, comm, on_report=keep_section)
-print(f"{results['cells']} cells, {results['dofs']} unknowns, {results['wall_time_s']:.1f} s")
+for report in model.reports():
+    grids[report.force_n] = sf.field_grid(model)
+    sections[report.force_n] = sf.field_section(grids[report.force_n])
+print(f"{results.run['cells']} cells, {results.run['dofs']} unknowns, {results.wall_time_s:.1f} s")
 
 # %% [markdown]
-# ## Read `results.json`
+# ## The results, typed
+#
+# `results.at_forces` holds one `Report` per reported force; `report.peak(measure, region)` is a
+# maximum with where it is.
 
 # %%
-results = json.loads((out / "results.json").read_text())
-r_t = results["scene"]["geometry"]["thread_radius_mm"] * 1e-3
-print(f"status: {results['status']}, {results['load_steps']} load steps, "
-      f"{results['newton_iterations']} Newton iterations")
+r_t = scene.geometry.thread_radius_mm * 1e-3
+print(f"status: {results.status}, {results.solver.load_steps} load steps, "
+      f"{results.solver.newton_iterations} Newton iterations")
 print(f"{'F (N)':>6} {'USUM (mm)':>10} {'end (mm)':>9} {'SEQV (MPa)':>11} {'F/(pi r_t^2) (MPa)':>19} "
       f"{'tissue SEQV (kPa)':>18} {'EPTOEQV':>8} {'reaction (N)':>13}")
-for rec in results["at_forces"]:
-    tissue = rec["regions"]["tissue"]
-    print(f"{rec['force_n']:6.2f} {rec['usum_mm']:10.3f} {rec['thread_end_displacement_mm']:9.3f} "
-          f"{rec['seqv_pa'] / 1e6:11.2f} {rec['force_n'] / (np.pi * r_t**2) / 1e6:19.2f} "
-          f"{tissue['seqv_pa'] / 1e3:18.1f} {tissue['eptoeqv']:8.3f} {rec['reaction_force_n']:13.9f}")
+for rec in results.at_forces:
+    print(f"{rec.force_n:6.2f} {rec.usum_mm:10.3f} {rec.thread_end_displacement_mm:9.3f} "
+          f"{rec.seqv_pa / 1e6:11.2f} {rec.force_n / (np.pi * r_t**2) / 1e6:19.2f} "
+          f"{rec.peak('seqv_pa', 'tissue').value / 1e3:18.1f} {rec.peak('eptoeqv', 'tissue').value:8.3f} "
+          f"{rec['reaction_force_n']:13.9f}")
 
 # %% [markdown]
 # ## Force against thread-end displacement
@@ -113,8 +109,8 @@ for rec in results["at_forces"]:
 # radius open; `suture-fem reproduce` calibrates one of them against one paper value).
 
 # %%
-fd = np.array(results["force_displacement"])
-reports = np.array([[rec["force_n"], rec["thread_end_displacement_mm"]] for rec in results["at_forces"]])
+fd = np.array(results.force_displacement)
+reports = np.array([[rec.force_n, rec.thread_end_displacement_mm] for rec in results.at_forces])
 paper_usum = np.array([[1.0, 4.0], [2.0, 5.3], [3.0, 6.7], [4.0, 7.6]])  # Mousavi et al., Table 1
 
 fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
@@ -133,7 +129,7 @@ plt.show()
 # %% [markdown]
 # ## Where the displacement is: USUM
 #
-# `plots.render_usum` (the pictures `suture-fem reproduce` draws) shows the full section (the
+# `sf.render_usum` (the pictures `suture-fem reproduce` draws) shows the full section (the
 # half-section mirrored about the axis) on the deformed shape, at 1 N and at 4 N, in bands of one
 # colour scale, with the suture and the tissue layers outlined. The thread and the tissue next to it move almost
 # together; the displacement dies out across the 3.6 mm to the fixed skin surface, and the tissue's far end is
@@ -141,7 +137,7 @@ plt.show()
 
 # %%
 first, last = min(grids), max(grids)
-png = plots.render_usum([grids[first], grids[last]], out / "usum.png",
+png = sf.render_usum([grids[first], grids[last]], out / "usum.png",
                         titles=[f"F = {f:g} N: USUM {grids[f].point_data['usum_mm'].max():.2f} mm"
                                 for f in (first, last)],
                         suptitle="USUM, displacement magnitude |u|, deformed shape")
@@ -156,8 +152,8 @@ display(Image(filename=str(png), width=900))
 # refinement, while the maximum outside 0.1 mm of every rim (`seqv_outside_rim_pa`) converges.
 
 # %%
-vm_max = results["at_forces"][-1]["regions"]["tissue"]["seqv_pa"] / 1e3  # the tissue SEQV at the peak force
-fig = pic.field_panels([sections[first], sections[last]], [f"F = {first:g} N", f"F = {last:g} N"],
+vm_max = results.peak("seqv_pa", "tissue").value / 1e3  # the tissue SEQV at the peak force
+fig = sf.field_panels([sections[first], sections[last]], [f"F = {first:g} N", f"F = {last:g} N"],
                        "von_mises_kpa", "tissue von Mises stress (kPa)", mcolors.LogNorm(vm_max / 1e4, vm_max),
                        tissue_only=True)
 plt.show()
@@ -165,34 +161,34 @@ plt.show()
 # %% [markdown]
 # ## Checks
 #
-# The numbers the conclusion rests on, computed from `results.json` above.
+# The numbers the conclusion rests on, computed from the results above.
 
 # %%
-peak = results["at_forces"][-1]
-balance = max(rec["force_balance_rel"] for rec in results["at_forces"])
-thread_stress_ratio = [rec["seqv_pa"] / (rec["force_n"] / (np.pi * r_t**2)) for rec in results["at_forces"]]
-suture = results["scene"]["materials"]["suture"]
-thinning = [1 / (1 - suture["poisson"] * rec["force_n"] / (np.pi * r_t**2) / suture["young"]) ** 2
-            for rec in results["at_forces"]]  # Cauchy / nominal stress of the free thread, small strain
+peak = results.at_forces[-1]
+balance = max(rec["force_balance_rel"] for rec in results.at_forces)
+thread_stress_ratio = [rec.seqv_pa / (rec.force_n / (np.pi * r_t**2)) for rec in results.at_forces]
+young, poisson = scene.get("materials.suture.young"), scene.get("materials.suture.poisson")
+thinning = [1 / (1 - poisson * rec.force_n / (np.pi * r_t**2) / young) ** 2
+            for rec in results.at_forces]  # Cauchy / nominal stress of the free thread, small strain
 per_newton = np.diff(np.r_[0.0, reports[:, 1]]) / np.diff(np.r_[0.0, reports[:, 0]])
-tissue_to_thread = peak["regions"]["tissue"]["seqv_pa"] / peak["seqv_pa"]
+tissue_to_thread = peak.peak("seqv_pa", "tissue").value / peak.seqv_pa
 print(f"largest relative force-balance error |R + F| / F: {balance:.1e}")
 print("overall SEQV / (F / pi r_t^2) at each force:", ", ".join(f"{v:.3f}" for v in thread_stress_ratio))
 print("free thread's 1 / (1 - nu F / (pi r_t^2 E))^2 at each force:", ", ".join(f"{v:.3f}" for v in thinning))
 print("overall SEQV region and (r, z) in mm at each force:",
-      ", ".join(f"{rec['seqv_pa_region']} ({rec['seqv_pa_at_mm'][0]:.3f}, {rec['seqv_pa_at_mm'][1]:.2f})"
-                for rec in results["at_forces"]))
+      ", ".join(f"{p.region} ({p.at_mm[0]:.3f}, {p.at_mm[1]:.2f})"
+                for p in (rec.peak("seqv_pa") for rec in results.at_forces)))
 print("displacement per newton between reported forces (mm/N):", ", ".join(f"{v:.2f}" for v in per_newton))
-print(f"USUM - thread-end displacement at {peak['force_n']:g} N: "
-      f"{peak['usum_mm'] - peak['thread_end_displacement_mm']:.2e} mm")
-print(f"tissue SEQV / overall SEQV at {peak['force_n']:g} N: {tissue_to_thread:.3f}")
+print(f"USUM - thread-end displacement at {peak.force_n:g} N: "
+      f"{peak.usum_mm - peak.thread_end_displacement_mm:.2e} mm")
+print(f"tissue SEQV / overall SEQV at {peak.force_n:g} N: {tissue_to_thread:.3f}")
 print("USUM against the paper (Table 1), relative difference:",
-      ", ".join(f"{rec['force_n']:g} N {rec['usum_mm'] / p - 1:+.0%}"
-                for rec, p in zip(results["at_forces"], paper_usum[:, 1])))
+      ", ".join(f"{rec.force_n:g} N {rec.usum_mm / p - 1:+.0%}"
+                for rec, p in zip(results.at_forces, paper_usum[:, 1])))
 
-assert results["status"] == "converged"
+assert results.status == "converged"
 assert balance < 1e-6
-assert all(rec["seqv_pa_region"] == "suture" for rec in results["at_forces"])
+assert all(rec.peak("seqv_pa").region == "suture" for rec in results.at_forces)
 assert all(v >= 1 for v in thread_stress_ratio)
 assert np.all(np.diff(per_newton) < 0)
 

@@ -13,6 +13,10 @@ The Python API (docs/api.md)::
 * :class:`Model`: one scene's mesh, physics and outputs; ``solve``, ``set``, ``u``, ``mesh``.
 * :class:`Results`: what a solve computed; results.json is ``results.to_dict()``.
 * :class:`SolveStopped`: the load ramp stopped with a diagnosis (``cause``, ``load_reached``).
+* Pictures (pyvista off-screen, matplotlib): :func:`field_grid` (a solved state's half-section, e.g.
+  ``sf.field_grid(model.outputs)``), :func:`field_section` (a solved state as a full section),
+  :func:`field_panels` and :func:`plot_field` (any field on axes in mm), :func:`render_usum` (USUM
+  contours in bands, to a PNG), :func:`plot_force_displacement` (curves, to a PNG).
 
 The names are imported when first used, so ``import suture_fem`` (and ``suture-fem --help``) loads
 no dolfinx.
@@ -25,7 +29,8 @@ from typing import Any
 
 __version__ = "0.1.0"
 
-__all__ = ["Model", "Results", "Scene", "SceneError", "SolveStopped", "__version__"]
+__all__ = ["Model", "Results", "Scene", "SceneError", "SolveStopped", "__version__",
+           "field_grid", "field_panels", "field_section", "plot_field", "plot_force_displacement", "render_usum"]
 
 #: Where each public name lives.
 _HOMES = {
@@ -34,6 +39,12 @@ _HOMES = {
     "Scene": "suture_fem.scene.model",
     "SceneError": "suture_fem.support.errors",
     "SolveStopped": "suture_fem.support.errors",
+    "field_grid": "suture_fem.plots",
+    "field_panels": "suture_fem.plots_fields",
+    "field_section": "suture_fem.plots_fields",
+    "plot_field": "suture_fem.plots_fields",
+    "plot_force_displacement": "suture_fem.plots",
+    "render_usum": "suture_fem.plots",
 }
 
 

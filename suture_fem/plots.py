@@ -31,7 +31,6 @@ from typing import Any
 import numpy as np
 
 from suture_fem.geometry import regions
-from suture_fem.support import compat
 
 #: Colour map of the contour pictures, drawn in bands (as ANSYS does) of a round step.
 CMAP = "turbo"
@@ -71,10 +70,13 @@ def field_grid(state: Any) -> Any:
     """The solved state as a pyvista UnstructuredGrid on rank 0 (None on other ranks); collective.
 
     Args:
-        state: an :class:`~suture_fem.outputs.Outputs` (as handed to ``run_scene``'s ``on_report``;
-            adds per-cell von Mises stress and equivalent strain) or a
+        state: a :class:`~suture_fem.Model` (its current state) or its
+            :class:`~suture_fem.outputs.Outputs` (adds per-cell von Mises stress and equivalent strain), or a
             :class:`~suture_fem.physics.Physics`.
     """
+    from suture_fem.support import compat  # dolfinx: imported when a grid is first built
+
+    state = getattr(state, "outputs", state)  # a Model: its outputs
     outputs = state if hasattr(state, "physics") else None
     physics = outputs.physics if outputs is not None else state
     V, u, comm = physics.V, physics.u, physics.comm

@@ -29,7 +29,7 @@ KERNEL = "suture-fem"
 
 
 def test_demos_are_found():
-    assert {"quickstart.py", "cone_design.py"} <= {p.name for p in DEMOS}
+    assert {"quickstart.py", "cone_design.py", "python_api.py"} <= {p.name for p in DEMOS}
 
 
 def test_no_notebook_is_committed():

@@ -31,7 +31,7 @@ MODELS.update({f"coulomb {mu}": [f"effects.friction_coefficient={mu}"] for mu in
 def run(model: str, calibrated: bool, out: Path, timeout: float) -> dict:
     """One reproduce run (or its earlier output): exit code, CPU seconds and the comparison."""
     interface = model.split()[0]
-    args = [sys.executable, "-m", "suture_fem.cli", "reproduce", "--no-pictures", "--out", str(out),
+    args = [sys.executable, "-P", "-m", "suture_fem.cli", "reproduce", "--no-pictures", "--out", str(out),
             "--set", f'effects.thread_interface="{interface}"']
     for kv in MODELS[model]:
         args += ["--set", kv]

@@ -104,8 +104,8 @@ def cli_answer(scale: float, out: Path) -> dict[str, Any]:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     sets = [a for k, v in {**SETS, "materials.tissue_scale": scale}.items() for a in ("--set", f"{k}={v}")]
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    proc = subprocess.run([sys.executable, "-P", "-m", "suture_fem.cli", "run", "paper", *sets, "--no-pictures", "--out",
-                           str(out)], env=env, cwd=ROOT, capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-P", "-m", "suture_fem.cli", "run", "paper", *sets, "--no-pictures",
+                           "--out", str(out)], env=env, cwd=ROOT, capture_output=True, text=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
         raise SystemExit(f"suture-fem run exited {proc.returncode}: {proc.stderr[-2000:]}")

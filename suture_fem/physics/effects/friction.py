@@ -114,7 +114,7 @@ class ThreadFriction:
     def _slips(self, u_vec: Any) -> np.ndarray:
         """G = u_z(a) - u_z(b) (or - the surface's u_z) per pair at the state vector ``u_vec`` (m; collective)."""
         self._scatter.scatter(u_vec, self._local, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        values = self._local.getArray(readonly=True).reshape(self.pairs, -1)
+        values = self._local.getArray(readonly=True).reshape(self.pairs, self.dofs.shape[1])
         return values[:, 0] - (values[:, 1] if values.shape[1] > 1 else self.surface)
 
     def law(self, g: np.ndarray) -> dict[str, np.ndarray]:

@@ -84,21 +84,13 @@ for scale in STIFFNESS:
 # ## Both force-displacement curves
 #
 # `results.force_displacement` is one `[force, thread-end displacement]` pair after every converged
-# load step, from rest.
+# load step, from rest; `sf.plot_force_displacement` draws them (the package's own plot, as the CLI's).
 
 # %%
-fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
-for scale, res in runs.items():
-    fd = np.array(res.force_displacement)
-    ax.plot(fd[:, 1], fd[:, 0], "o-", ms=3.5, label=f"tissue scale {scale:g}")
-ax.set_xlabel("thread-end axial displacement (mm)")
-ax.set_ylabel("force F (N)")
-ax.set_xlim(left=0)
-ax.set_ylim(bottom=0)
-ax.grid(alpha=0.3)
-ax.legend(loc="lower right")
-ax.set_title("one cone: the same mesh and forms, two tissue stiffnesses")
-plt.show()
+curves = sf.plot_force_displacement({f"tissue scale {scale:g}": res.force_displacement for scale, res in runs.items()},
+                                    out / "force_displacement.png",
+                                    title="one cone: the same mesh and forms, two tissue stiffnesses")
+display(Image(filename=str(curves)))
 
 # %% [markdown]
 # ## A field with pyvista

@@ -87,13 +87,21 @@ class DisplacementRamp(Path):
         self.d_max = d_max * MM
         targets = sorted(set(d / d_max for d in scene.loading.report_displacements_mm) | {1.0})
         super().__init__(physics, targets, o.initial_step, o.min_step, o.max_step, o.grow)
+        self._force: tuple[float, float] | None = None  # (s, the end's force there)
 
     def force(self, s: float) -> float:
-        """The force the end takes in the current state (N; the caller asks at a converged s)."""
-        return self.physics.applied_force_n()
+        """The force the end takes in the current state (N; the caller asks at a converged s).
+
+        One residual assembly per converged state: the stepping asks for it three times (the step's
+        record, the log, the report), so it is kept until the loads change.
+        """
+        if self._force is None or self._force[0] != s:
+            self._force = (s, self.physics.applied_force_n())
+        return self._force[1]
 
     def apply(self, s_from: float, s_to: float) -> None:
         """No traction; the end at the fraction s_to of the displacement."""
+        self._force = None
         self.physics.set_force(0.0)
         self.physics.control.set(s_to * self.d_max)
 

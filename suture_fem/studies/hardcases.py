@@ -59,7 +59,7 @@ def matrix() -> list[Case]:
             cases.append(Case(
                 f"K x{factor} P{degree} {formulation}", 1,
                 (*bulk(factor), f"mesh.degree={degree}", f"effects.incompressibility={formulation}"),
-                f"tissue 1/d x{factor} (nu_hypodermis = {poisson(factor):.6f})",
+                f"1/d of every layer x{factor} (nu_hypodermis = {poisson(factor):.6f})",
             ))
     for young in (15e6, 150e9):
         cases.append(Case(f"suture E = {young:g} Pa", 2, (f"materials.suture.young={young:g}",),

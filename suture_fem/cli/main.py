@@ -28,7 +28,7 @@ from suture_fem.support.logging import setup_logging
 #: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
 COMMAND_MODULES: tuple[str, ...] = ("suture_fem.cli.sweep", "suture_fem.cli.convergence",
                                      "suture_fem.cli.reproduce", "suture_fem.cli.maxload",
-                                     "suture_fem.cli.calibrate")
+                                     "suture_fem.cli.calibrate", "suture_fem.cli.holding")
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:

@@ -13,7 +13,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from suture_fem.pipeline import load_scene
+from suture_fem.model import check
+from suture_fem.scene.load import parse_scene
 from suture_fem.studies.holding.study import holding, prepared
 from suture_fem.support.errors import SceneError
 
@@ -31,6 +32,8 @@ def register(subparsers: Any, scene_args: Any) -> None:
     p.add_argument("--calibration", default=None, metavar="FILE",
                    help="a calibration.json: its calibrated values are used and their 95 %% intervals widen the band")
     p.add_argument("--out", default=None, help="output folder (default: results/<scene>-holding)")
+    p.add_argument("--reports", type=int, default=16, metavar="K",
+                   help="reported forces per ramp, 2-64 (default 16; each costs the critical-distance searches)")
     p.add_argument("--no-pictures", action="store_true", help="do not draw failure_index.png")
     p.set_defaults(handler=holding_command)
 
@@ -55,16 +58,20 @@ def read_calibration(path: str, settable: Any) -> dict[str, Any]:
 
 def holding_command(args: argparse.Namespace, comm: Any) -> int:
     """Run the study and print the answer."""
-    scene = prepared(load_scene(args.scene, list(args.overrides)))
     for name, value in (("--tol", args.tol), ("--up-to", args.up_to)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise SceneError(f"holding: {name} = {value:g} N must be a finite number > 0")
+    if not 2 <= args.reports <= 64:
+        raise SceneError(f"holding: --reports = {args.reports} must be an integer from 2 to 64")
+    scene = prepared(parse_scene(args.scene, list(args.overrides)))
     calibration = None
     if args.calibration:
         calibration = read_calibration(args.calibration, lambda k, v: scene.with_values({k: v}))
+    check(scene)  # the geometry's checks and the mesh's size, still before any meshing
     name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
     out = Path(args.out or f"results/{name}-holding")
-    rec = holding(scene, comm, args.up_to, args.tol, calibration, out, pictures=not args.no_pictures, name=name)
+    rec = holding(scene, comm, args.up_to, args.tol, calibration, out, pictures=not args.no_pictures, name=name,
+                  grid=args.reports)
     if comm.rank == 0:
         print(f"suture-fem: {summary_line(rec)}; {out / 'holding.json'}")
     stop = rec.get("stop")

@@ -78,7 +78,7 @@ def failure_force(samples: list[Sample], part: str, strength: float) -> Crossing
 
 def first_failure(samples: list[Sample], strengths: dict[str, float]) -> Crossing | None:
     """The part that fails first at the given strengths (the smallest interpolated failure force)."""
-    found = [c for part in PARTS if (c := failure_force(samples, part, strengths[part])) is not None]
+    found = [c for part, value in strengths.items() if (c := failure_force(samples, part, value)) is not None]
     return min(found, key=lambda c: c.force_n) if found else None
 
 

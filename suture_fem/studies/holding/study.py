@@ -42,7 +42,7 @@ from suture_fem.support.errors import SceneError, SolveStopped
 
 log = logging.getLogger("suture_fem")
 
-#: Reported forces per pass.
+#: Reported forces per pass (the default of ``grid``).
 GRID = 16
 #: Forces are never reported closer than this fraction of the pass's top force (the ramp's own floor).
 MIN_SPACING = 1e-6
@@ -65,8 +65,8 @@ def prepared(scene: Scene) -> Scene:
 class Holding:
     """The passes of one holding study on one built model (collective over its communicator)."""
 
-    def __init__(self, model: Any, up_to_n: float, tol_n: float):
-        self.model, self.up_to_n, self.tol_n = model, up_to_n, tol_n
+    def __init__(self, model: Any, up_to_n: float, tol_n: float, grid: int = GRID):
+        self.model, self.up_to_n, self.tol_n, self.grid = model, up_to_n, tol_n, grid
         self.samples: list[Sample] = []
         self.passes: list[dict[str, Any]] = []
         self.stop: dict[str, Any] | None = None
@@ -98,7 +98,7 @@ class Holding:
         cap = min(self.up_to_n, strengths(self.scene, "high")["thread"])
         top = min(start_n, cap)
         while True:
-            self.solve(top, list(np.linspace(0.0, top, GRID + 1)[1:]))
+            self.solve(top, list(np.linspace(0.0, top, self.grid + 1)[1:]))
             done = first_failure(self.samples, strengths(self.scene, "high")) is not None
             if done or self.stop is not None or top >= cap:
                 return
@@ -112,18 +112,19 @@ class Holding:
             lo, hi = crossing.below_n, crossing.above_n
             if hi - lo <= MIN_SPACING * hi:
                 break
-            self.solve(hi, list(np.linspace(lo, hi, GRID + 1)[1:-1]))
+            self.solve(hi, list(np.linspace(lo, hi, self.grid + 1)[1:-1]))
             crossing = first_failure(self.samples, nominal)
         return crossing
 
 
 def holding(scene: Scene, comm: Any, up_to_n: float | None = None, tol_n: float = 0.01,
             calibration: dict[str, Any] | None = None, out: Path | None = None,
-            pictures: bool = True, name: str = "scene") -> dict[str, Any]:
+            pictures: bool = True, name: str = "scene", grid: int = GRID) -> dict[str, Any]:
     """Bracket the first failure of ``scene``; returns the holding record (and writes it under ``out``).
 
     ``calibration``: a calibration record (calibration.json); each calibrated key is set to its value,
-    and the band also spans its 95 % interval.
+    and the band also spans its 95 % interval. ``grid``: reported forces per ramp (each costs the
+    critical-distance searches; fewer make each pass cheaper and the narrowing take more passes).
     """
     from suture_fem.model import Model
 
@@ -136,7 +137,7 @@ def holding(scene: Scene, comm: Any, up_to_n: float | None = None, tol_n: float 
         scene = scene.with_values(calibrated)
     t0 = time.process_time()
     model = Model(scene, comm)
-    study = Holding(model, up_to, tol_n)
+    study = Holding(model, up_to, tol_n, grid)
     study.reach(scene.loading.force_n)
     crossing = study.narrow()
     band = [first_failure(study.samples, strengths(scene, end)) for end in ("low", "high")]
@@ -147,7 +148,7 @@ def holding(scene: Scene, comm: Any, up_to_n: float | None = None, tol_n: float 
         record["calibration"] = _calibration_band(model, study, calibration, record)
     record["cpu_s"] = round(time.process_time() - t0, 2)
     if out is not None:
-        write(out, record, scene, name, comm)
+        write(out, record, scene, name, model.comm)
     return record
 
 
@@ -171,7 +172,7 @@ def _calibration_band(model: Any, study: Holding, calibration: dict[str, Any], r
     for key, p in calibration["parameters"].items():
         for value in p["ci95"]:
             model.set({key: value})
-            other = Holding(model, study.up_to_n, study.tol_n)
+            other = Holding(model, study.up_to_n, study.tol_n, study.grid)
             other.reach(study.scene.loading.force_n)
             for end in ("low", "value", "high"):
                 found = first_failure(other.samples, strengths(model.scene, end))

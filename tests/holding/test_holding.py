@@ -29,8 +29,8 @@ def _scene(values: dict | None = None) -> Scene:
 
 
 def _samples(values: list[float]) -> list[Sample]:
-    return [Sample(0.5 * (i + 1), {"hypodermis": v, "thread": 0.5 * (i + 1)}, {"hypodermis": [0.6, 3.0], "thread": None})
-            for i, v in enumerate(values)]
+    return [Sample(0.5 * (i + 1), {"hypodermis": v, "thread": 0.5 * (i + 1)},
+                   {"hypodermis": [0.6, 3.0], "thread": None}) for i, v in enumerate(values)]
 
 
 def test_crossing_is_interpolated_from_rest_and_the_first_part_wins():

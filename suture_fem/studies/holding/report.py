@@ -77,6 +77,10 @@ def markdown(record: dict[str, Any], geometry: Geometry, scene_name: str) -> str
     lines += ["", "| pass | ramp to (N) | reports | CPU (s) | stopped |", "| --- | --- | --- | --- | --- |"]
     lines += [f"| {i} | {p['to_n']:.4g} | {p['reports']} | {p['cpu_s']} | {p['stopped'] or ''} |"
               for i, p in enumerate(record["passes"], start=1)]
+    if record.get("calibration"):
+        values = ", ".join(f"{k} = {v:.4g}" for k, v in record["calibration"]["parameters"].items())
+        lines += ["", f"Calibrated: {values}; the band includes the first failure at both ends of each 95 % interval "
+                  "(at the strengths' low, value and high ends)."]
     if record.get("stop"):
         lines += ["", f"The ramp stopped at {record['stop']['force_n']:.4g} N ({record['stop']['cause']}): "
                   "beyond it the model gives no state, so a failure force above it is unknown."]

@@ -131,7 +131,7 @@ def hertz_solve(case: Hertz, n: int, degree: int = 2, penalty: float = 100.0, st
     x = ufl.SpatialCoordinate(mesh)
     force = comm.allreduce(dolfinx.fem.assemble_scalar(compat.form(kappa * closed(problem.u, x) * 2 * math.pi * x[0]
                                                                    * ds(TOP))), op=MPI.SUM)
-    r, p = _nodal_pressure(problem, kappa * closed(problem.u, x), ds)
+    r, p = nodal_pressure(problem, kappa * closed(problem.u, x), ds, TOP)
     inside, outside = r[p > 0.0], r[p <= 0.0]
     a_in = comm.allreduce(float(inside.max(initial=0.0)), op=MPI.MAX)
     a_out = comm.allreduce(float(outside[outside > a_in].min(initial=np.inf)), op=MPI.MIN)
@@ -142,12 +142,15 @@ def hertz_solve(case: Hertz, n: int, degree: int = 2, penalty: float = 100.0, st
             "a_out": a_out / a, "h": 2.0 / (n // 2), "iterations": float(iterations)}
 
 
-def _nodal_pressure(problem: Any, pressure: Any, ds: Any) -> tuple[np.ndarray, np.ndarray]:
-    """(r, p) at the owned top-surface nodes: the penalty's nodal force over the 2 pi r-weighted lumped area."""
+def nodal_pressure(problem: Any, pressure: Any, ds: Any, tag: int) -> tuple[np.ndarray, np.ndarray]:
+    """(r, p) at the owned nodes of the flat surface z = 0 tagged ``tag``, off the axis.
+
+    P: ``pressure``'s nodal force over the 2 pi r-weighted lumped area (on the axis the weight vanishes).
+    """
     V, mesh = problem.W, problem.mesh
     v, x = ufl.TestFunction(V), ufl.SpatialCoordinate(mesh)
-    force = dolfinx.fem.petsc.assemble_vector(compat.form(pressure * v[1] * 2 * math.pi * x[0] * ds(TOP)))
-    area = dolfinx.fem.petsc.assemble_vector(compat.form(v[1] * 2 * math.pi * x[0] * ds(TOP)))
+    force = dolfinx.fem.petsc.assemble_vector(compat.form(pressure * v[1] * 2 * math.pi * x[0] * ds(tag)))
+    area = dolfinx.fem.petsc.assemble_vector(compat.form(v[1] * 2 * math.pi * x[0] * ds(tag)))
     values = []
     for vec in (force, area):
         vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -157,5 +160,5 @@ def _nodal_pressure(problem: Any, pressure: Any, ds: Any) -> tuple[np.ndarray, n
     coords = V.tabulate_dof_coordinates()[:n_owned]
     top = np.flatnonzero(np.isclose(coords[:, 1], 0.0))
     r, f, A = coords[top, 0], values[0][top], values[1][top]
-    keep = r > 1e-9 * np.max(coords[:, 0])  # on the axis the weight 2 pi r vanishes: no pressure there
+    keep = r > 1e-9 * np.max(coords[:, 0])
     return r[keep], f[keep] / A[keep]

@@ -6,14 +6,15 @@ A layer fails where its critical-distance average (``output.critical_distance_mm
 solved in passes, each a ramp from rest with reported forces on a grid:
 
 1. the scene's force, then doubled (never past ``--up-to``, nor the thread's breaking force at the
-   high end of its band, which no first failure can pass) until every part has reached its strength at
-   the high end of its band, or the ramp stops (the Gent limit: the model can go no further);
-2. the bracket of the first failure at the strengths' values narrowed by ramps to its upper force with
-   reports spaced evenly inside it, until it is narrower than ``--tol``.
+   high end of its band, which no first failure can pass) until a part fails with every strength at the
+   high end of its band, or the ramp stops (the Gent limit: the model can go no further);
+2. the bracket of the first failure narrowed by ramps to its upper force with reports spaced evenly
+   inside it, until it is narrower than ``--tol``: at every strength's low end, at its high end (the
+   band's ends: all parts together), and at the strengths' values (the answer).
 
-The band: the first failure at every strength's low end and at every high end (all parts together),
-interpolated on all the samples; with a calibration record, also at the ends of each calibrated
-parameter's 95 % interval (a Constant of the forms, set without re-meshing). Writes holding.json,
+With a calibration record the band also spans the first failure at both ends of each calibrated
+parameter's 95 % interval (a Constant of the forms, set without re-meshing; interpolated on one pass 1
+each). Writes holding.json,
 holding.md and failure_index.png (:mod:`suture_fem.studies.holding.report`).
 """
 
@@ -104,16 +105,16 @@ class Holding:
                 return
             top = min(2.0 * top, cap)
 
-    def narrow(self) -> Crossing | None:
-        """Pass 2: ramps that close the first failure's bracket (at the strengths' values) to ``tol``."""
-        nominal = strengths(self.scene)
-        crossing = first_failure(self.samples, nominal)
+    def narrow(self, end: str = "value") -> Crossing | None:
+        """Pass 2: ramps that close the first failure's bracket to ``tol`` (strengths at ``end`` of their band)."""
+        at = strengths(self.scene, end)
+        crossing = first_failure(self.samples, at)
         while crossing is not None and crossing.above_n - crossing.below_n > self.tol_n:
             lo, hi = crossing.below_n, crossing.above_n
             if hi - lo <= MIN_SPACING * hi:
                 break
             self.solve(hi, list(np.linspace(lo, hi, self.grid + 1)[1:-1]))
-            crossing = first_failure(self.samples, nominal)
+            crossing = first_failure(self.samples, at)
         return crossing
 
 
@@ -139,8 +140,8 @@ def holding(scene: Scene, comm: Any, up_to_n: float | None = None, tol_n: float 
     model = Model(scene, comm)
     study = Holding(model, up_to, tol_n, grid)
     study.reach(scene.loading.force_n)
-    crossing = study.narrow()
-    band = [first_failure(study.samples, strengths(scene, end)) for end in ("low", "high")]
+    band = [study.narrow(end) for end in ("low", "high")]  # the band's ends bracketed to tol too
+    crossing = study.narrow()  # last: its ramp's reports include the failure's, for the picture
     record = summary(scene, study, crossing, band)
     if out is not None:  # the files now, the calibration's band (more ramps) after
         _files(out, record, model, name, pictures)

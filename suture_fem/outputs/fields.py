@@ -100,14 +100,20 @@ class FieldWriter:
     def discard(self) -> None:
         """Drop the partial files after a failure (never raises; rank 0 removes the hidden folder)."""
         file, self.file = self.file, None
-        if file is not None:
-            with contextlib.suppress(Exception):  # the write failed already; the folder goes anyway
-                file.close()
-        if self.physics.comm.rank == 0:
-            # HDF5 keeps a file it failed to flush open: empty it, so its blocks are free for results.json
+        comm = self.physics.comm
+        if comm.rank == 0:
+            # Empty the partial files first: their blocks are free again, so HDF5 can close the file
+            # (on a full disk its close fails, and under MPI the file's destructor then aborts every rank)
             for f in self.staging.glob("*") if self.staging.is_dir() else ():
                 with contextlib.suppress(OSError):
                     os.truncate(f, 0)
+        if file is not None:
+            comm.barrier()
+            try:
+                file.close()
+            except Exception:  # noqa: BLE001 (the write failed already; the folder goes anyway)
+                _keep_unclosed(file)
+        if comm.rank == 0:
             remove(self.staging)
 
     def _move_into_place(self) -> None:
@@ -120,6 +126,17 @@ class FieldWriter:
             remove(self.staging, *(self.final.parent / n for n in names))
             raise
         self.staging.rmdir()
+
+
+def _keep_unclosed(file: Any) -> None:
+    """Never destroy a file HDF5 failed to close: its C++ destructor would close it again, throw, and abort.
+
+    After a failed write under MPI (a full disk) HDF5 cannot close the file; dolfinx's XDMFFile
+    destructor then throws "Failed to close HDF5 file." and every rank aborts in C++ (exit 134,
+    dozens of lines). The object is given one reference that is never released, so it outlives the
+    interpreter; the operating system closes the descriptor when the process ends.
+    """
+    ctypes.pythonapi.Py_IncRef(ctypes.py_object(file))
 
 
 def _fresh(folder: Path) -> None:

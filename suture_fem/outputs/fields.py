@@ -154,8 +154,7 @@ def _mesh_bytes(mesh: Any) -> int:
     """About the bytes of the mesh in the .h5: node coordinates (3 per node) and cells' nodes (int64)."""
     cells = mesh.topology.index_map(mesh.topology.dim).size_global
     nodes = mesh.geometry.index_map().size_global
-    per_cell = compat.geometry_dofs(mesh).shape[1] if len(compat.geometry_dofs(mesh)) else 3
-    return 8 * (3 * nodes + per_cell * cells)
+    return 8 * (3 * nodes + compat.geometry_dofs(mesh).shape[1] * cells)
 
 
 def _keep_unclosed(file: Any) -> None:

@@ -140,6 +140,21 @@ def test_a_lock_file_that_is_a_symlink_or_a_hard_link_is_refused(tmp_path, victi
     assert victim.read_text() == "precious\n"
 
 
+def test_a_planted_staging_folder_symlink_is_replaced_not_followed(tmp_path):
+    # a sweep scene is solved in OUT/.NNN-HASH.partial: a symlink there made the scene fail (File exists)
+    from suture_fem.studies.sweep.folders import fresh_folder
+
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "keep.txt").write_text("precious\n")
+    staging = tmp_path / "out" / ".000-abc.partial"
+    staging.parent.mkdir()
+    staging.symlink_to(elsewhere, target_is_directory=True)
+    fresh_folder(staging)
+    assert staging.is_dir() and not staging.is_symlink() and list(staging.iterdir()) == []
+    assert (elsewhere / "keep.txt").read_text() == "precious\n"
+
+
 def test_a_log_file_never_follows_a_symlink(tmp_path, victim):
     from suture_fem.support import io
 

@@ -16,7 +16,7 @@ from typing import Any
 
 from suture_fem.studies.sweep.plan import SweepError
 from suture_fem.support.folder_lock import FolderInUse, lock_folder, release_folder
-from suture_fem.support.io import read_json, write_json
+from suture_fem.support.io import read_json, remove, write_json
 
 FINISHED = ("converged", "stopped", "invalid")  # a folder with one of these is not solved again
 
@@ -41,8 +41,8 @@ def finished_scenes(out: Path) -> dict[str, str]:
 
 
 def fresh_folder(folder: Path) -> None:
-    """An empty folder at ``folder`` (whatever was there is removed)."""
-    shutil.rmtree(folder, ignore_errors=True)
+    """An empty folder at ``folder`` (whatever was there is removed; a symlink itself, never its target)."""
+    remove(folder)
     folder.mkdir(parents=True)
 
 

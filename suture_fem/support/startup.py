@@ -91,7 +91,9 @@ class _StartPETSc(importlib.abc.MetaPathFinder):
 
 class _Started(importlib.abc.Loader):
     def create_module(self, spec: Any) -> Any:
-        return sys.modules[spec.name]
+        import petsc4py.lib
+
+        return petsc4py.lib.ImportPETSc(None)  # the extension module petsc4py.init loaded and started
 
     def exec_module(self, module: Any) -> None:
         """Already executed by petsc4py.init."""

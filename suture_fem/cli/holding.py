@@ -17,7 +17,11 @@ from suture_fem.model import check
 from suture_fem.scene.load import parse_scene
 from suture_fem.studies.holding.study import holding, prepared
 from suture_fem.support.errors import SceneError
+from suture_fem.support.folder_lock import lock_folder, release_folder
+from suture_fem.support.parallel import on_root
 
+#: The lock file a holding study holds in its --out for its life (a second one into the folder is refused).
+HOLDING_LOCK = ".holding.lock"
 #: Causes of a ramp's stop that are a limit of the model's tissue, not of the numerics.
 PHYSICAL = ("gent_limit", "inverted_element")
 
@@ -70,8 +74,13 @@ def holding_command(args: argparse.Namespace, comm: Any) -> int:
     check(scene)  # the geometry's checks and the mesh's size, still before any meshing
     name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
     out = Path(args.out or f"results/{name}-holding")
-    rec = holding(scene, comm, args.up_to, args.tol, calibration, out, pictures=not args.no_pictures, name=name,
-                  grid=args.reports)
+    lock = on_root(comm, f"locking {out}", lock_folder, out, HOLDING_LOCK, "holding")
+    try:
+        rec = holding(scene, comm, args.up_to, args.tol, calibration, out, pictures=not args.no_pictures,
+                      name=name, grid=args.reports)
+    finally:
+        if lock is not None:
+            release_folder(lock, out, HOLDING_LOCK)
     if comm.rank == 0:
         print(f"suture-fem: {summary_line(rec)}; {out / 'holding.json'}")
     stop = rec.get("stop")

@@ -19,7 +19,7 @@ from suture_fem.geometry.regions import REGION_TAGS
 from suture_fem.geometry.section import Geometry
 from suture_fem.outputs.critical_distance import CONE_ZONE_RADII
 from suture_fem.scene.strength import LAYERS
-from suture_fem.support.io import write_json, write_text
+from suture_fem.support.io import save_figure, write_json, write_text
 from suture_fem.support.parallel import on_root
 
 
@@ -111,9 +111,7 @@ def failure_index_picture(model: Any, record: dict[str, Any], png: Path) -> Path
     fig = _panels(grid, panels, mcolors.LogNorm(0.1, 10.0), "RdYlBu_r")
     import matplotlib.pyplot as plt
 
-    from suture_fem.plots import _save
-
-    _save(fig, png)  # a temporary file renamed into place: complete or absent
+    save_figure(fig, png, dpi=130, bbox_inches="tight")  # a temporary file renamed into place: complete or absent
     plt.close(fig)
     return png
 

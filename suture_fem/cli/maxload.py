@@ -36,6 +36,10 @@ def maxload_command(args: argparse.Namespace, comm: Any) -> int:
         if rec["bracketed"]:
             print(f"suture-fem: the scene carries {rec['bracket_n'][0]:.6g} N and fails at {rec['bracket_n'][1]:.6g} N "
                   f"(tolerance {rec['tolerance_n']:g} N): {rec['cause']}; {out / 'maxload.json'}")
+        elif rec.get("limit") == "physical":
+            lo, hi = rec["bracket_n"]
+            print(f"suture-fem: the scene carries {lo:.6g} N and fails at {hi:.6g} N: {rec['cause']}, a bracket "
+                  f"{rec['width_n']:.3g} N wide, NOT within --tol {rec['tolerance_n']:g} N; {out / 'maxload.json'}")
         elif rec["cause"] is None:
             print(f"suture-fem: carries at least {up_to:g} N (no limit below --up-to); {out / 'maxload.json'}")
         else:

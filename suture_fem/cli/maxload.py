@@ -12,6 +12,7 @@ from typing import Any
 
 from suture_fem.pipeline import load_scene
 from suture_fem.studies.maxload import max_load
+from suture_fem.support.io import usable_folder
 
 
 def register(subparsers: Any, scene_args: Any) -> None:
@@ -30,7 +31,7 @@ def maxload_command(args: argparse.Namespace, comm: Any) -> int:
     scene = load_scene(args.scene, list(args.overrides))
     up_to = args.up_to if args.up_to is not None else 10.0 * scene.loading.force_n
     name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
-    out = Path(args.out or f"results/{name}-maxload")
+    out = usable_folder(args.out or f"results/{name}-maxload")
     rec = max_load(scene, comm, up_to, args.tol, out)
     if comm.rank == 0:
         if rec["bracketed"]:

@@ -76,7 +76,7 @@ def test_a_newton_tolerance_above_the_balance_does_not_end_converged_unbalanced(
 
 
 @pytest.mark.parametrize("overrides, words", [
-    (["solver.min_step=1e-300", "solver.initial_step=1e-300", "solver.max_step=1e-300"], ["_step = 1e-300", ">= 1e-09"]),
+    (["solver.min_step=1e-300", "solver.initial_step=1e-300", "solver.max_step=1e-300"], ["step = 1e-300", ">= 1e-09"]),
     (["solver.min_step=1e-9", "solver.initial_step=1e-9", "solver.max_step=1e-9"], ["1e+09 steps", "max_step"]),
     (["effects.inertia=true", "effects.time_step_s=1e-9"], ["1.2e+09 steps", "time_step_s", "years"]),
 ])

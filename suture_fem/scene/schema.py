@@ -99,8 +99,7 @@ def _pos(hi: float = INF, *, lo: float = 0.0, lo_open: bool = True) -> Rule:
     return Rule("float", lo=lo, hi=hi, lo_open=lo_open)
 
 
-#: Shortest length (mm) a geometric dimension or element size may have: 1 micrometre, far below any
-#: tissue layer or suture feature and above what gmsh can mesh in a model tens of millimetres long.
+#: Shortest length (mm) of a dimension or element size: 1 micrometre, far below any tissue layer, above what gmsh meshes.
 MIN_LENGTH_MM = 1e-3
 
 

@@ -65,8 +65,8 @@ def test_a_newton_tolerance_above_the_balance_does_not_end_converged_unbalanced(
     from mpi4py import MPI
 
     from suture_fem.pipeline import load_scene, run_scene
-    from suture_fem.scene.balance import BALANCE_TOL
     from suture_fem.scene.schema import SolverSection
+    from suture_fem.studies.hardcases import BALANCE_TOL  # 1e-6 of the pull
 
     scene = load_scene("paper", [*ONE_CONE, "loading.force_n=0.5", "loading.report_forces_n=[]"])
     loose = dataclasses.replace(scene, solver=SolverSection.internal(**{**scene.solver.as_dict(), "atol": 1.0}))

@@ -99,7 +99,7 @@ def _pos(hi: float = INF, *, lo: float = 0.0, lo_open: bool = True) -> Rule:
     return Rule("float", lo=lo, hi=hi, lo_open=lo_open)
 
 
-#: Shortest length (mm) of a dimension or element size: 1 micrometre, far below any tissue layer, above what gmsh meshes.
+#: Shortest length (mm) of a dimension or element size: 1 micrometre, below any tissue layer, above what gmsh meshes.
 MIN_LENGTH_MM = 1e-3
 
 

@@ -238,7 +238,7 @@ class _Stepper:
                          "floor (recorded as residual_floor_n)", newton.floor, newton.options.atol)
             result.floor_above_atol += 1
         result.residual_floor_n = max(result.residual_floor_n, newton.floor)
-        force = force_scale(self.physics)
+        force = force_scale(self.physics) if ok else 0.0  # (collective: under displacement control an assembly)
         if ok and newton.residual_norm() > BALANCE_TOL * force:  # converged means balanced (scene/balance.py)
             log.info("Newton stopped (%s) at |R| %.2e N, above %g of the force %.3g N: not balanced", reason,
                      newton.residual_norm(), BALANCE_TOL, force)

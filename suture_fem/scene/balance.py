@@ -1,13 +1,14 @@
 """What "converged" means, and how long a ramp must take: the cross-key rules checked before any meshing.
 
 A state counts as converged only when it balances the force applied then to :data:`BALANCE_TOL`
-(the residual left at the free degrees of freedom, N, over that force); the stepping lets that decide
-(:mod:`suture_fem.solve.stepping`). So the tolerances a scene may set are those that can meet it: a
-relative tolerance of at most BALANCE_TOL (:mod:`suture_fem.scene.schema`), an absolute one (N) of at
-most BALANCE_TOL times the pull (:func:`check_tolerances`; the solves also stop at no more than
-BALANCE_TOL times the force applied at each step). The number of steps a ramp needs is known
-before meshing, as the mesh's size is (:mod:`suture_fem.geometry.estimate`): :func:`check_steps`
-refuses a scene that cannot finish. Pure Python on the validated scene mapping.
+(the residual left at the free degrees of freedom, N, over that force), or to the residual's round-off
+floor where that is higher (a moved end that takes almost no force; results.json's residual_floor_n);
+the stepping lets that decide (:mod:`suture_fem.solve.stepping`). So the tolerances a scene may set
+are those that can meet it: a relative tolerance of at most BALANCE_TOL (:mod:`suture_fem.scene.schema`),
+an absolute one (N) of at most BALANCE_TOL times the pull (:func:`check_tolerances`; the solves also
+stop at no more than BALANCE_TOL times the force applied at each step). The number of steps a ramp
+needs is known before meshing, as the mesh's size is (:mod:`suture_fem.geometry.estimate`):
+:func:`check_steps` refuses a scene that cannot finish. Pure Python on the validated scene mapping.
 """
 
 from __future__ import annotations

@@ -238,8 +238,10 @@ class _Stepper:
                          "floor (recorded as residual_floor_n)", newton.floor, newton.options.atol)
             result.floor_above_atol += 1
         result.residual_floor_n = max(result.residual_floor_n, newton.floor)
+        # converged means balanced (scene/balance.py): to BALANCE_TOL of the force, or to the residual's
+        # round-off floor where that is higher (a moved end that takes almost no force)
         force = force_scale(self.physics) if ok else 0.0  # (collective: under displacement control an assembly)
-        if ok and newton.residual_norm() > BALANCE_TOL * force:  # converged means balanced (scene/balance.py)
+        if ok and newton.residual_norm() > max(BALANCE_TOL * force, newton.floor):
             log.info("Newton stopped (%s) at |R| %.2e N, above %g of the force %.3g N: not balanced", reason,
                      newton.residual_norm(), BALANCE_TOL, force)
             ok, reason = False, UNBALANCED

@@ -22,26 +22,26 @@ from suture_fem.support.errors import SceneError
 #: of ``solver.atol`` and this fraction of the force; the paper scene ends its steps near 2e-10 of the
 #: force (the residual's round-off floor, 7e-10 N at 4 N).
 BALANCE_TOL = 1e-6
-#: Smallest pull (N) a scene may apply or report: far below it the residual's rounding (about 1e-17 N
-#: on the paper scene) is no longer small beside BALANCE_TOL of the force.
+#: Smallest pull (N) a scene may apply or report: far below it the rounding of the reaction (6e-18 N on
+#: the paper scene pulled with 1e-300 N) is no longer small beside BALANCE_TOL of the force.
 MIN_FORCE_N = 1e-6
 #: Smallest load step, as a fraction of the ramp: the stepping lands on report points to 1e-12 of the
 #: ramp, so a step must be well above that to make progress (1e-300 divided by zero in the predictor).
 MIN_STEP = 1e-9
-#: Most load or time steps a scene's path may need at the least: a step costs about a second on the
-#: paper scene's mesh (one to a few Newton iterations), so 20,000 steps are about six hours.
+#: Most load or time steps a scene's path may need at the least: a step costs at least about a second on
+#: the paper scene's mesh (one to a few Newton iterations), so 20,000 steps are six hours or more.
 MAX_STEPS = 20_000
 
 
 def check_tolerances(scene: dict[str, Any]) -> None:
     """solver.atol (and a petsc_options.snes_atol) at most BALANCE_TOL times the pull (force control)."""
     loading, solver = scene["loading"], scene["solver"]
+    if loading["control"] != "force":
+        return  # the force is the end's reaction, known only in the solve: the stepping's check stands alone
     force = loading["force_n"] * loading["force_scale"]
     if force < MIN_FORCE_N:
         raise SceneError(f"scene keys loading.force_n x loading.force_scale = {force:.3g} N: the pull must be at "
                          f"least {MIN_FORCE_N:g} N, or its balance cannot be told from rounding")
-    if loading["control"] != "force":
-        return  # the force is the end's reaction, known only in the solve: the stepping's check stands alone
     limit = BALANCE_TOL * force
     for key, value in (("solver.atol", solver["atol"]),
                        ("solver.petsc_options.snes_atol", solver["petsc_options"].get("snes_atol"))):

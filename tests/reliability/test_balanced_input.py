@@ -157,8 +157,8 @@ def test_a_dotted_key_thousands_deep_is_one_line(tmp_path, capsys):
     code, errors, _ = _cli(["show", "paper", "--set", f"{key}=1"], capsys)
     assert code == 2 and len(errors) == 1 and "3000 dotted parts" in errors[0]
     sweep = tmp_path / "s.toml"
-    sweep.write_text(f'base = "paper"\nout = "{tmp_path / "o"}"\n[grid]\n"{key}" = [1]\n')
-    code, errors, _ = _cli(["sweep", str(sweep), "--list"], capsys)
+    sweep.write_text(f'base = "paper"\n[grid]\n"{key}" = [1]\n')
+    code, errors, _ = _cli(["sweep", str(sweep), "--out", str(tmp_path / "o"), "--list"], capsys)
     assert code == 2 and len(errors) == 1 and "grid key" in errors[0] and len(errors[0]) < 400
     assert not (tmp_path / "o").exists()
 
@@ -271,8 +271,8 @@ def test_a_curve_too_big_to_fit_is_one_line(tmp_path, text, words):
 
 def test_sweep_ranks_per_scene_below_one_makes_no_folder(tmp_path, capsys):
     sweep = tmp_path / "s.toml"
-    sweep.write_text(f'base = "paper"\nout = "{tmp_path / "o"}"\n[grid]\n"geometry.cones" = [1]\n')
-    code, errors, _ = _cli(["sweep", str(sweep), "--ranks-per-scene", "-1"], capsys)
+    sweep.write_text('base = "paper"\n[grid]\n"geometry.cones" = [1]\n')
+    code, errors, _ = _cli(["sweep", str(sweep), "--out", str(tmp_path / "o"), "--ranks-per-scene", "-1"], capsys)
     assert code == 2 and len(errors) == 1 and "--ranks-per-scene -1" in errors[0]
     assert not (tmp_path / "o").exists()
 

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.support import startup
-from suture_fem.support.errors import Interrupted, SutureFemError
+from suture_fem.support.errors import Interrupted, SutureFemError, one_line
 from suture_fem.support.logging import setup_logging
 
 #: Modules that add a subcommand: each has ``register(subparsers, scene_args)``, which adds its
@@ -31,6 +31,9 @@ from suture_fem.support.logging import setup_logging
 COMMAND_MODULES: tuple[str, ...] = ("suture_fem.cli.sweep", "suture_fem.cli.convergence",
                                      "suture_fem.cli.reproduce", "suture_fem.cli.maxload",
                                      "suture_fem.cli.calibrate", "suture_fem.cli.holding")
+
+#: The commands whose interruption leaves a results.json with the last converged step.
+WRITES_RESULTS = ("run", "sweep", "maxload")
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:
@@ -93,11 +96,12 @@ def main(argv: list[str] | None = None) -> int:
         return _dispatch(args, comm)
     except Interrupted as exc:
         if comm.rank == 0:
-            print(f"suture-fem: interrupted ({exc.name}); results.json keeps the last converged step", file=sys.stderr)
+            kept = "; results.json keeps the last converged step" if args.command in WRITES_RESULTS else ""
+            print(f"suture-fem: interrupted ({exc.name}){kept}", file=sys.stderr)
         return exc.exit_code
     except SutureFemError as exc:
         if comm.rank == 0:
-            print(f"suture-fem: error: {exc}", file=sys.stderr)
+            print(f"suture-fem: error: {one_line(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except Exception:
         if comm.size == 1:
@@ -135,7 +139,7 @@ def _catch_signals() -> dict[int, Any]:
 
 
 def _dispatch(args: argparse.Namespace, comm: Any) -> int:
-    from suture_fem.pipeline import load_scene
+    from suture_fem.pipeline import check_ranks, load_scene
     from suture_fem.scene import builtin_names
 
     if getattr(args, "handler", None) is not None:
@@ -148,6 +152,8 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
     if args.command == "run" and args.fields:
         overrides.append("output.fields=true")
     scene = load_scene(args.scene, overrides)
+    if args.command == "run":
+        check_ranks(scene, comm)
     if args.command == "show":
         if comm.rank == 0:
             print(json.dumps(scene.as_dict(), indent=2))

@@ -19,6 +19,7 @@ from suture_fem.studies.reproduce import SCENE, reproduce
 from suture_fem.studies.reproduce.calibration import DEFAULT, parse_key
 from suture_fem.studies.reproduce.report import calibration_heading, pct
 from suture_fem.support.errors import SceneError
+from suture_fem.support.io import usable_folder
 
 
 def register(subparsers: Any, scene_args: Any) -> None:
@@ -75,6 +76,7 @@ def _jobs(text: str | None, comm: Any) -> int:
 def reproduce_command(args: argparse.Namespace, comm: Any) -> int:
     """Run the study and print where the comparison is, the largest prediction error and any missed trend."""
     scene = load_scene(args.scene, args.overrides)
+    usable_folder(args.out)
     parse_key(args.calibrate, scene)  # a bad key or bounds: one line, exit 2, before any meshing
     if args.max_evaluations < 1:
         raise SceneError(f"--max-evaluations {args.max_evaluations}: expected an integer >= 1")

@@ -20,7 +20,7 @@ from suture_fem.geometry.section import Geometry
 from suture_fem.scene.schema import GeometrySection, MeshSection
 from suture_fem.support import compat
 from suture_fem.support.errors import SceneError
-from suture_fem.support.io import WriteError, commit, temporary_name, why, write_json
+from suture_fem.support.io import WriteError, commit, temporary_name, usable_folder, why, write_json
 from suture_fem.support.parallel import on_root
 
 
@@ -92,6 +92,7 @@ def check_msh_path(path: str | Path) -> Path:
     if path.suffix != ".msh":
         raise SceneError(f"--out {path}: the mesh file's name must end in .msh (its JSON record is written beside "
                          f"it with .json), e.g. --out {path.with_suffix('.msh')}")
+    usable_folder(path.parent, f"--out {path}: its folder")
     return path
 
 

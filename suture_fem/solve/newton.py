@@ -31,6 +31,8 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
   then stagnates there and a step whose relative test cannot help (the small increments of a time
   history) fails for nothing. Each solve therefore uses max(atol, that floor) as its absolute
   tolerance (:meth:`NewtonSolver.round_off_floor`), and the run records the largest floor it used.
+  The absolute tolerance is also never above ``BALANCE_TOL`` of the force applied at the step: a
+  state is converged only when it balances the pull (:mod:`suture_fem.scene.balance`).
 * Line search fallback. The residual norm is a poor merit function where the tissue is nearly
   incompressible: from rest, the backtracking ("bt") line search creeps with steps of a few percent
   while full Newton steps ("basic") converge quadratically; where full steps leave the admissible
@@ -51,6 +53,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem.physics.effects.friction import settle
+from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.schema import SolverSection
 from suture_fem.solve import inertia
 from suture_fem.solve.guard import DomainGuard, Violation
@@ -144,6 +147,7 @@ class NewtonSolver(Linearised):
             self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
             self.A.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
         self.stol = float(base["snes_stol"])  # the increment test in force (a scene may set its own)
+        self.atol = float(base["snes_atol"])  # the absolute residual test asked for (N)
         for key, value in base.items():
             opts[self.prefix + key] = value
         self.snes.setOptionsPrefix(self.prefix)
@@ -239,7 +243,11 @@ class NewtonSolver(Linearised):
         self.timings.assembly += time.perf_counter() - t0
         if snes.getIterationNumber() == 0:  # the state this solve starts from: set its round-off floor
             self.floor = self.round_off_floor(x)
-            snes.setTolerances(atol=max(self.options.atol, self.floor))
+            snes.setTolerances(atol=self.absolute_tolerance())
+
+    def absolute_tolerance(self) -> float:
+        """The residual test (N): ``snes_atol``, at most BALANCE_TOL x the applied force, at least the floor."""
+        return max(min(self.atol, BALANCE_TOL * force_scale(self.physics)), self.floor)
 
     def _newton_jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         """SNES's Jacobian: :meth:`_jacobian`, then (MUMPS LDL^T) shifted while it has negative pivots."""
@@ -262,7 +270,7 @@ class NewtonSolver(Linearised):
         """
         if self.friction is None:
             return self._solve_once()
-        return settle(self.friction, self._solve_once, lambda: max(self.options.atol, self.floor))
+        return settle(self.friction, self._solve_once, self.absolute_tolerance)
 
     def _solve_once(self) -> tuple[bool, int, str]:
         """One SNES solve from the current state (see :meth:`solve`)."""
@@ -272,6 +280,7 @@ class NewtonSolver(Linearised):
         self.last_violation = None
         t0 = time.perf_counter()
         a0 = self.timings.assembly + self.timings.guard
+        self.snes.setTolerances(atol=min(self.snes.getTolerances()[1], BALANCE_TOL * force_scale(self.physics)))
         try:
             self.snes.solve(None, self.x)
             its = self.snes.getIterationNumber()

@@ -27,6 +27,23 @@ class StopCause(StrEnum):
     NO_AXIAL_SUPPORT = "no_axial_support"
 
 
+#: Longest value an error message quotes, and longest message printed (characters).
+SHOWN_CHARS = 80
+MESSAGE_CHARS = 1000
+
+
+def shown(value: Any) -> str:
+    """A value as a message quotes it: its repr (control characters escaped), cut to SHOWN_CHARS."""
+    text = repr(value)
+    return text if len(text) <= SHOWN_CHARS else f"{text[:SHOWN_CHARS]}... ({len(text):,} characters)"
+
+
+def one_line(message: str) -> str:
+    """A message as the terminal gets it: control characters escaped, cut to MESSAGE_CHARS."""
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
+    return text if len(text) <= MESSAGE_CHARS else f"{text[:MESSAGE_CHARS]}... ({len(text):,} characters)"
+
+
 class SutureFemError(Exception):
     """Base class; ``exit_code`` is what ``suture-fem`` exits with."""
 

@@ -21,7 +21,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from suture_fem.support.errors import SutureFemError
+from suture_fem.support.errors import SceneError, SutureFemError
 
 
 class WriteError(SutureFemError):
@@ -105,6 +105,28 @@ def _removed_on_failure(tmp: Path, path: Path) -> Iterator[None]:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def usable_folder(path: str | Path, option: str = "--out") -> Path:
+    """``path`` if it is, or can be made, a folder this process writes into; SceneError (exit 2) if not.
+
+    Checked before any work, creating nothing that stays: the path itself, else its nearest existing
+    parent, must be a folder a file can be created in (not a file, not read-only).
+    """
+    path = Path(path)
+    probe = path
+    while not os.path.lexists(probe) and probe.parent != probe:
+        probe = probe.parent
+    if not probe.is_dir():
+        what = "is a file" if probe == path else f"cannot be made: {probe} is a file"
+        raise SceneError(f"{option} {path}: {what}, not a folder; give a folder path")
+    try:  # a probe file, removed at once: root passes every permission test, a read-only disk does not
+        fd, name = tempfile.mkstemp(dir=probe, prefix=".suture-fem-probe-")
+        os.close(fd)
+        os.unlink(name)
+    except OSError as exc:
+        raise SceneError(f"{option} {path}: {probe} cannot be written ({exc.strerror or exc})") from None
+    return path
 
 
 def _file_mode() -> int:

@@ -35,7 +35,7 @@ from typing import Any
 
 from suture_fem.pipeline import load_scene
 from suture_fem.scene import Scene
-from suture_fem.scene.load import parse_toml, read_scene_source, read_text_file
+from suture_fem.scene.load import check_key_depth, parse_toml, read_scene_source, read_text_file
 from suture_fem.support.errors import SceneError
 
 SWEEP_KEYS = ("base", "out", "set", "grid", "scenes")
@@ -140,6 +140,10 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
         if not grid:
             raise SweepError(f"sweep file {path}: [grid] is empty")
         for key, values in grid.items():
+            try:
+                check_key_depth(key, f"sweep file {path}: grid key")
+            except SceneError as exc:
+                raise SweepError(str(exc)) from None
             if not isinstance(values, list) or not values:
                 raise SweepError(f"sweep file {path}: grid key {key}: expected a non-empty list of values")
         variations = [dict(zip(grid, combo)) for combo in itertools.product(*grid.values())]

@@ -24,6 +24,7 @@ from suture_fem.outputs.results import Results
 from suture_fem.outputs.snapshots import Snapshot
 from suture_fem.scene import Scene
 from suture_fem.solve.records import Timings
+from suture_fem.support import signals
 from suture_fem.support.errors import SolveStopped, SutureFemError
 from suture_fem.support.io import remove
 from suture_fem.support.parallel import on_root
@@ -96,6 +97,7 @@ class LoadSteps:
         if report:
             self.report(force_n)
         self.save()
+        signals.check(self.comm)  # a signal received meanwhile (on any rank) ends the ramp after this step
 
     def report(self, force_n: float) -> None:
         """The outputs of the current state at a reported force (collective)."""

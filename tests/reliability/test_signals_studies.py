@@ -1,0 +1,195 @@
+"""Every rank and child stops; the first screen tells the truth (docs/reliability.md, the last section).
+
+The signal tests wait for a marker (results.json "running" with a converged step) before they signal,
+and then only for the process to end (a generous timeout against a hang, no wall-clock limit).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import FAST, ROOT, mpi_env, mpirun, sets
+
+#: A ramp of many small steps: long enough that a signal sent after its first step lands mid-ramp.
+SLOW = ["mesh.degree=1", "mesh.refinement=0", "solver.max_step=0.05", "solver.initial_step=0.05"]
+HANG_S = 600  # only against a hang: every process here ends within seconds of its signal
+
+
+def _results(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def _until(condition, proc: subprocess.Popen | None = None, what: str = "") -> None:
+    """Poll ``condition`` until true (fails if ``proc`` ends first, or after HANG_S)."""
+    t0 = time.monotonic()
+    while not condition():
+        if proc is not None and proc.poll() is not None:
+            pytest.fail(f"the process ended (exit {proc.returncode}) before {what}")
+        if time.monotonic() - t0 > HANG_S:
+            pytest.fail(f"no {what} after {HANG_S} s")
+        time.sleep(0.1)
+
+
+def _stepping(path: Path):
+    """results.json is "running" with at least one converged step."""
+    def ready() -> bool:
+        r = _results(path)
+        return r is not None and r["status"] == "running" and len(r["force_displacement"]) > 1
+    return ready
+
+
+def _children(pid: int, word: str) -> list[int]:
+    """The live processes whose parent is ``pid`` and whose command line contains ``word``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()
+        if int(fields[1]) == pid and fields[0] != "Z" and word in cmdline:
+            found.append(int(entry.name))
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat[stat.rindex(")") + 2:].split()[0] != "Z"
+
+
+def _run(args: list[str], out: Path, ranks: int = 1) -> subprocess.Popen:
+    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", *args]
+    return subprocess.Popen((mpirun(ranks) if ranks > 1 else []) + cmd, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=mpi_env(), cwd=ROOT)
+
+
+def _finish(proc: subprocess.Popen) -> tuple[str, str]:
+    try:
+        return proc.communicate(timeout=HANG_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        pytest.fail(f"hung after the signal:\n{err[-3000:]}")
+
+
+# ----------------------------------------------------------------------------- every rank stops
+
+@pytest.mark.parametrize("signum, rank", [(signal.SIGINT, 1), (signal.SIGTERM, 0), (signal.SIGHUP, 1)])
+def test_a_signal_to_one_rank_stops_every_rank(signum, rank, tmp_path):
+    out = tmp_path / "run"
+    proc = _run(["run", "paper", *sets(SLOW), "--no-pictures", "--out", str(out)], out, ranks=2)
+    try:
+        _until(_stepping(out / "results.json"), proc, "a converged step")
+        root = _results(out / "results.json")["process"]["pid"]
+        ranks = [root] + [p for p in _children(proc.pid, "suture_fem.cli") if p != root]
+        assert len(ranks) == 2, ranks
+        os.kill(ranks[rank], signum)
+        _, err = _finish(proc)
+    finally:
+        proc.kill()
+    name = signal.Signals(signum).name
+    results = _results(out / "results.json")
+    assert results["status"] == "interrupted" and name in results["error"], (results["status"], err[-2000:])
+    assert proc.returncode == 128 + signum, err[-2000:]
+    assert f"interrupted ({name})" in err and "Traceback" not in err and "MPI_ABORT" not in err
+
+
+def test_sighup_ends_a_serial_run_like_sigterm(tmp_path):
+    out = tmp_path / "run"
+    proc = _run(["run", "paper", *sets(SLOW), "--no-pictures", "--out", str(out)], out)
+    try:
+        _until(_stepping(out / "results.json"), proc, "a converged step")
+        proc.send_signal(signal.SIGHUP)
+        _, err = _finish(proc)
+    finally:
+        proc.kill()
+    results = _results(out / "results.json")
+    assert (proc.returncode, results["status"]) == (129, "interrupted"), err[-2000:]
+    assert "SIGHUP" in results["error"] and "interrupted (SIGHUP)" in err
+    assert "MPI_ABORT" not in err and "Traceback" not in err
+
+
+def test_a_burst_of_signals_is_reported_by_the_first(tmp_path):
+    """Ctrl-C twice then SIGTERM, microseconds apart: one stop, named by the first, never "converged"."""
+    out = tmp_path / "run"
+    proc = _run(["run", "paper", *sets(SLOW), "--no-pictures", "--out", str(out)], out)
+    try:
+        _until(_stepping(out / "results.json"), proc, "a converged step")
+        for signum in (signal.SIGINT, signal.SIGINT, signal.SIGTERM):
+            os.kill(proc.pid, signum)
+        _, err = _finish(proc)
+    finally:
+        proc.kill()
+    results = _results(out / "results.json")
+    assert (proc.returncode, results["status"]) == (130, "interrupted"), err[-2000:]
+    assert "SIGINT" in results["error"] and "Traceback" not in err
+
+
+def _signal_in_jacobian(monkeypatch, burst) -> None:
+    """At the third Jacobian of the solve, ``burst()`` runs inside SNES's Jacobian callback."""
+    from suture_fem.solve.newton import NewtonSolver
+
+    calls = {"n": 0}
+    jacobian = NewtonSolver._jacobian
+
+    def patched(self, snes, x, A, P):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            burst()
+        return jacobian(self, snes, x, A, P)
+
+    monkeypatch.setattr(NewtonSolver, "_jacobian", patched)
+
+
+def test_a_burst_inside_the_jacobian_callback_is_one_stop_named_by_the_first(tmp_path, monkeypatch, capsys):
+    from suture_fem.cli import main
+
+    def burst():  # all three pending at once, delivered when the callback unblocks them
+        handled = {signal.SIGINT, signal.SIGTERM}
+        signal.pthread_sigmask(signal.SIG_BLOCK, handled)
+        for signum in (signal.SIGINT, signal.SIGINT, signal.SIGTERM):
+            os.kill(os.getpid(), signum)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, handled)
+        time.sleep(0.5)
+
+    _signal_in_jacobian(monkeypatch, burst)
+    out = tmp_path / "run"
+    code = main(["run", "paper", *sets(FAST), "--no-pictures", "--out", str(out)])
+    results = _results(out / "results.json")
+    assert (code, results["status"]) == (130, "interrupted"), capsys.readouterr().err[-2000:]
+    assert "SIGINT" in results["error"]
+
+
+def test_a_signal_whose_exception_was_swallowed_still_stops_the_run(tmp_path, monkeypatch, capsys):
+    """Compiled code that cannot pass an exception on prints it and goes on: the next check raises it again."""
+    from suture_fem.cli import main
+
+    def swallowed():
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.5)
+        except KeyboardInterrupt:
+            pass
+
+    _signal_in_jacobian(monkeypatch, swallowed)
+    out = tmp_path / "run"
+    code = main(["run", "paper", *sets(FAST), "--no-pictures", "--out", str(out)])
+    results = _results(out / "results.json")
+    assert (code, results["status"]) == (130, "interrupted"), capsys.readouterr().err[-2000:]

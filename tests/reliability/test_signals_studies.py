@@ -193,3 +193,91 @@ def test_a_signal_whose_exception_was_swallowed_still_stops_the_run(tmp_path, mo
     code = main(["run", "paper", *sets(FAST), "--no-pictures", "--out", str(out)])
     results = _results(out / "results.json")
     assert (code, results["status"]) == (130, "interrupted"), capsys.readouterr().err[-2000:]
+
+
+# ----------------------------------------------------------------------------- every child stops
+
+def _after(pid: int, word: str) -> str:
+    """The argument after ``word`` on the command line of process ``pid``."""
+    args = Path(f"/proc/{pid}/cmdline").read_bytes().decode().split("\0")
+    return args[args.index(word) + 1]
+
+
+def _child_stops_with(parent: subprocess.Popen, word: str, folder_of, end_parent) -> dict:
+    """Wait for the parent's child (``word`` in its command line) to step, end the parent; the child's results."""
+    _until(lambda: bool(_children(parent.pid, word)), parent, f"a {word} child")
+    child = _children(parent.pid, word)[0]
+    results = folder_of(child) / "results.json"
+    _until(_stepping(results), parent, "the child's first converged step")
+    end_parent()
+    _finish(parent)
+    _until(lambda: not _alive(child), None, "the child's end")
+    return _results(results)
+
+
+def test_convergence_interrupted_stops_its_rung_process(tmp_path):
+    out = tmp_path / "ledger"
+    parent = _run(["convergence", "paper", *sets(SLOW), "--degrees", "1", "--refinements", "0,1", "--out", str(out)],
+                  out)
+    try:
+        child = _child_stops_with(parent, "ledger-rung", lambda pid: Path(_after(pid, "--out")),
+                                  lambda: parent.send_signal(signal.SIGINT))
+    finally:
+        parent.kill()
+    assert parent.returncode == 130
+    assert child["status"] == "interrupted" and "SIGTERM" in child["error"], child["status"]
+
+
+def test_reproduce_killed_outright_ends_its_ramp_process(tmp_path):
+    out = tmp_path / "reproduce"
+    parent = _run(["reproduce", "--out", str(out), "--calibrate", "none", "--jobs", "2", "--no-pictures",
+                   "--mesh", "scene", *sets(SLOW)], out)
+    try:
+        child = _child_stops_with(parent, "reproduce-ramp", lambda pid: Path(_after(pid, "reproduce-ramp")).parent,
+                                  parent.kill)
+    finally:
+        parent.kill()
+    assert parent.returncode == -signal.SIGKILL
+    assert child["status"] == "interrupted" and "SIGTERM" in child["error"], child["status"]
+
+
+# ----------------------------------------------------------------------------- the study's exit code
+
+def _study(reached_n: dict[int, float]):
+    """What ``reproduce`` returns when the ramp of each cone count in ``reached_n`` stopped at that force.
+
+    The study's own comparison, findings and missing values on ramps made up here (the real study's
+    ramps take minutes): each reported force up to where the ramp stopped has a record.
+    """
+    from suture_fem.pipeline import load_scene
+    from suture_fem.studies.paper import CONES, FORCES_N
+    from suture_fem.studies.reproduce.calibration import not_calibrated
+    from suture_fem.studies.reproduce.compare import comparison, findings, missing_values
+
+    scene = load_scene("paper_reproduction", [])
+
+    def record(n, f):
+        return {"force_n": f, "usum_mm": 8.0 * f / n, "regions": {"tissue": {"seqv_pa": 2e5 * f, "eptoeqv": 0.5 * f}}}
+
+    results = {n: {"at_forces": [record(n, f) for f in FORCES_N if f <= reached_n.get(n, 4.0)]} for n in CONES}
+    stopped = {n: f"solve stopped (gent_limit) at {f:.3g} N" for n, f in reached_n.items()}
+    cmp = comparison(results, not_calibrated(scene), scene)
+    cmp.update({"stopped": stopped, "findings": findings(stopped, cmp["rows"]), "missing": missing_values(cmp["rows"]),
+                "run": {"wall_time_s": 1.0, "cpu_time_s": 1.0, "jobs": 1, "ramps_cpu_time_s": 1.0}})
+    return lambda *args, **kwargs: cmp
+
+
+@pytest.mark.parametrize("reached, code, words", [
+    ({1: 1.94, 2: 3.96}, 0, ["finding: 1 cone(s): solve stopped (gent_limit) at 1.94 N (past every value the paper "
+                             "gives for it)", "finding: 2 cone(s)"]),
+    ({4: 2.5}, 3, ["finding: 4 cone(s)", "missing: Table 1 usum_mm, 4 cone(s) at 3 N"]),
+])
+def test_reproduce_exits_0_when_every_paper_value_is_solved(reached, code, words, tmp_path, monkeypatch, capsys):
+    import suture_fem.cli.reproduce as command
+    from suture_fem.cli import main
+
+    monkeypatch.setattr(command, "reproduce", _study(reached))
+    assert main(["reproduce", "--out", str(tmp_path / "r"), "--calibrate", "none"]) == code
+    printed = capsys.readouterr().out
+    for w in words:
+        assert w in printed, printed

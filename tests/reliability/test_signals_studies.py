@@ -281,3 +281,30 @@ def test_reproduce_exits_0_when_every_paper_value_is_solved(reached, code, words
     printed = capsys.readouterr().out
     for w in words:
         assert w in printed, printed
+
+
+# ----------------------------------------------------------------------------- the run's first screen
+
+def test_the_run_summary_leads_with_the_converged_tissue_measures(tmp_path, capsys):
+    from suture_fem.cli import main
+    from suture_fem.cli.run_report import summary
+
+    out = tmp_path / "run"
+    assert main(["run", "paper", *sets(FAST), "--no-pictures", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    results = _results(out / "results.json")
+    rec = results["at_forces"][-1]
+    tissue = rec["regions"]["tissue"]
+    at = next(i for i, line in enumerate(printed) if line.startswith(f"  F = {rec['force_n']:g} N:"))
+    lead, peak = printed[at + 1], printed[at + 2]
+    assert lead.strip().startswith("tissue, critical distance 0.1 mm: SEQV") and "EPTOEQV" in lead
+    assert f"SEQV {tissue['seqv_cd_pa'] / 1e6:.4g} MPa" in lead and f"EPTOEQV {tissue['eptoeqv_cd']:.4g}" in lead
+    assert peak.strip().startswith("tissue peak") and "mesh-dependent" in peak
+    assert f"SEQV {tissue['seqv_pa'] / 1e6:.4g} MPa" in peak
+    assert "error bars: run with --error-estimate" in printed[1]
+    # with --error-estimate's record, each converged measure carries its estimated error
+    results["error_estimate"] = {"at_forces": [{"force_n": rec["force_n"],
+                                                "regions.tissue.seqv_cd_pa": {"plus_minus": 2.1e4},
+                                                "regions.tissue.eptoeqv_cd": {"plus_minus": 0.012}}]}
+    text = summary(results, out, [])
+    assert f"SEQV {tissue['seqv_cd_pa'] / 1e6:.4g} +- 0.021 MPa" in text and "+- 0.012 at" in text

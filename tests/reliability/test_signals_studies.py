@@ -308,3 +308,28 @@ def test_the_run_summary_leads_with_the_converged_tissue_measures(tmp_path, caps
                                                 "regions.tissue.eptoeqv_cd": {"plus_minus": 0.012}}]}
     text = summary(results, out, [])
     assert f"SEQV {tissue['seqv_cd_pa'] / 1e6:.4g} +- 0.021 MPa" in text and "+- 0.012 at" in text
+
+
+# ----------------------------------------------------------------------------- the set-up's first screen
+
+def _install(tmp_path: Path, **env: str) -> subprocess.CompletedProcess:
+    return subprocess.run(["bash", str(ROOT / "scripts" / "install.sh")], capture_output=True, text=True,
+                          env={**os.environ, "SUTURE_FEM_INSTALL_LOG": str(tmp_path / "install.log"), **env},
+                          timeout=HANG_S)
+
+
+def test_a_failing_set_up_stage_is_one_line_and_names_its_full_log(tmp_path):
+    proc = _install(tmp_path, SUTURE_FEM_VENV="/proc/no-such-folder/venv")
+    assert proc.returncode != 0
+    assert proc.stdout.splitlines()[-1].endswith("... failed (exit 1)"), proc.stdout
+    assert f"the full log is {tmp_path / 'install.log'}" in proc.stderr
+    assert "No such file or directory: '/proc/no-such-folder'" in (tmp_path / "install.log").read_text()
+
+
+def test_the_set_up_prints_one_line_per_stage(tmp_path):
+    proc = _install(tmp_path)  # everything is installed already: the pip and kernel stages run again
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert all(line.startswith("install.sh: ") for line in lines) and len(lines) <= 6 and not proc.stderr, proc
+    assert lines[-1].startswith("install.sh: ready") and str(tmp_path / "install.log") in lines[-1]
+    assert "pip install" in (tmp_path / "install.log").read_text()

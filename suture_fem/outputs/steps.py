@@ -121,6 +121,10 @@ class LoadSteps:
         they are removed. A results.json that cannot be written then is logged, not raised, so the
         first error is the one reported.
         """
+        with signals.held():  # a signal now must not leave results.json "running"
+            self._ended(exc)
+
+    def _ended(self, exc: BaseException) -> None:
         if isinstance(exc, SolveStopped):
             self.stopped(exc)
         elif isinstance(exc, KeyboardInterrupt):
@@ -146,8 +150,9 @@ class LoadSteps:
         self.save()
 
     def save(self) -> None:
-        """Stamp the times and rewrite results.json (rank 0, atomically)."""
-        self.results.write(self.path, self.comm, *self.clock.stamp())
+        """Stamp the times and rewrite results.json (rank 0, atomically; a signal meanwhile is raised after)."""
+        with signals.held():
+            self.results.write(self.path, self.comm, *self.clock.stamp())
 
     def close(self) -> None:
         """Close the field file, if any, and move it into place (collective)."""

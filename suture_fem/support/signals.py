@@ -11,6 +11,7 @@ its own). What a signal does:
   exception is swallowed (by compiled code that cannot pass it on, e.g. a callback PETSc calls), the
   next :func:`check` raises it again: the solver checks at every residual and Jacobian, the load ramp
   after every converged step.
+* Inside :func:`held` (writing results.json) it is only recorded, and raised at the next check.
 * Under MPI it only records the signal: a rank that raised alone would leave the others waiting in a
   collective call for ever. :func:`check` is collective: when any rank of the communicator has
   received a signal, every rank raises Interrupted for the same signal (that of the lowest rank that
@@ -19,8 +20,10 @@ its own). What a signal does:
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import threading
+from collections.abc import Iterator
 from typing import Any
 
 from suture_fem.support.errors import Interrupted
@@ -45,6 +48,21 @@ def handler(signum: int, frame: Any) -> None:
     _received = signum
     if _at_once:
         raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def held() -> Iterator[None]:
+    """A block no signal breaks half-way (writing results.json): one that arrives is only recorded.
+
+    The next :func:`check` after the block raises it (or, when the block is the last word of a run
+    that already ended for another reason, it is one of the later signals that are ignored).
+    """
+    global _at_once
+    before, _at_once = _at_once, False
+    try:
+        yield
+    finally:
+        _at_once = before
 
 
 def install(ranks: int) -> dict[int, Any]:

@@ -11,6 +11,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -161,12 +162,14 @@ def _signal_in_jacobian(monkeypatch, burst) -> None:
 def test_a_burst_inside_the_jacobian_callback_is_one_stop_named_by_the_first(tmp_path, monkeypatch, capsys):
     from suture_fem.cli import main
 
-    def burst():  # all three pending at once, delivered when the callback unblocks them
+    def burst():  # all three pending at once on this thread, delivered when the callback unblocks them
         handled = {signal.SIGINT, signal.SIGTERM}
         signal.pthread_sigmask(signal.SIG_BLOCK, handled)
-        for signum in (signal.SIGINT, signal.SIGINT, signal.SIGTERM):
-            os.kill(os.getpid(), signum)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, handled)
+        try:
+            for signum in (signal.SIGINT, signal.SIGINT, signal.SIGTERM):
+                signal.pthread_kill(threading.get_ident(), signum)  # not to another thread of this process
+        finally:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, handled)  # never left blocked: children would inherit it
         time.sleep(0.5)
 
     _signal_in_jacobian(monkeypatch, burst)
@@ -183,7 +186,7 @@ def test_a_signal_whose_exception_was_swallowed_still_stops_the_run(tmp_path, mo
 
     def swallowed():
         try:
-            os.kill(os.getpid(), signal.SIGINT)
+            signal.pthread_kill(threading.get_ident(), signal.SIGINT)  # raised here, inside the try
             time.sleep(0.5)
         except KeyboardInterrupt:
             pass

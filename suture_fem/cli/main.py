@@ -15,13 +15,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import signal
 import sys
 import threading
 from pathlib import Path
 from typing import Any
 
-from suture_fem.support import children, signals
+from suture_fem.support import children, signals, startup
 from suture_fem.support.errors import Interrupted, SutureFemError
 from suture_fem.support.logging import setup_logging
 
@@ -29,7 +30,7 @@ from suture_fem.support.logging import setup_logging
 #: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
 COMMAND_MODULES: tuple[str, ...] = ("suture_fem.cli.sweep", "suture_fem.cli.convergence",
                                      "suture_fem.cli.reproduce", "suture_fem.cli.maxload",
-                                     "suture_fem.cli.calibrate")
+                                     "suture_fem.cli.calibrate", "suture_fem.cli.holding")
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:
@@ -72,12 +73,21 @@ def _scene_name(source: str) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Run one command on MPI's world communicator; returns the exit code (0, 2 bad input, 3 stopped)."""
+    try:
+        ignored = startup.check_environment()  # before MPI starts
+    except SutureFemError as exc:
+        if os.environ.get("OMPI_COMM_WORLD_RANK", "0") == "0":
+            print(f"suture-fem: error: {exc}", file=sys.stderr)
+        return exc.exit_code
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD  # the command line is the one place that picks the communicator
     parser = build_parser()
     args = parser.parse_args(argv)
     setup_logging(comm, args.verbose)
+    if ignored and comm.rank == 0:
+        print(f"suture-fem: {' and '.join(ignored)} ignored: PETSc options come only from the scene's "
+              "solver.petsc_options", file=sys.stderr)
     previous = _catch_signals(comm)
     try:
         return _dispatch(args, comm)
@@ -155,15 +165,32 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
     raise AssertionError(args.command)
 
 
+#: The lock file a run holds in its --out for its life (a second run into the folder is refused).
+RUN_LOCK = ".run.lock"
+
+
 def _run(args: argparse.Namespace, scene: Any, comm: Any) -> int:
-    """``suture-fem run``: solve, draw the pictures (unless --no-pictures), print the answer."""
+    """``suture-fem run`` with its --out locked (rank 0 holds ``OUT/.run.lock``) before anything is written."""
+    from suture_fem.support.folder_lock import lock_folder, release_folder
+    from suture_fem.support.parallel import on_root
+
+    out = Path(args.out or f"results/{_scene_name(args.scene)}")
+    lock = on_root(comm, f"locking {out}", lock_folder, out, RUN_LOCK, "run")
+    try:
+        return _run_locked(args, scene, comm, out)
+    finally:
+        if lock is not None:
+            release_folder(lock, out, RUN_LOCK)
+
+
+def _run_locked(args: argparse.Namespace, scene: Any, comm: Any, out: Path) -> int:
+    """Solve, draw the pictures (unless --no-pictures), print the answer."""
     from suture_fem.cli.run_report import Pictures, summary
     from suture_fem.pipeline import scene_model
     from suture_fem.support.errors import SolveStopped
     from suture_fem.support.io import read_json
 
     name = _scene_name(args.scene)
-    out = Path(args.out or f"results/{name}")
     pictures = None if args.no_pictures else Pictures(out, comm)
     model = scene_model(scene, out, comm)
     try:

@@ -101,7 +101,7 @@ def _write_checked(gmsh: Any, path: Path) -> None:
     gmsh does not report a short write (a full disk): a file that does not end with a ``$End...``
     line is removed and the error raised instead of being renamed into place.
     """
-    tmp = temporary_name(path).with_suffix(".msh")  # gmsh picks the format by the suffix
+    tmp = temporary_name(path, ".msh")  # gmsh picks the format by the suffix
     try:
         gmsh.write(str(tmp))
         with open(tmp, "rb") as f:

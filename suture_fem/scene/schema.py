@@ -1,11 +1,10 @@
 """The scene schema: every key once, with its type, allowed range and unit.
 
-Each section of a scene is a frozen dataclass; each of its fields is one scene key, declared with
-:func:`key` (its :class:`Rule` and unit). Default values and their sources are written beside the
-keys in ``defaults.toml`` (a test checks that the two list the same keys); :func:`section` gives every
-field its default from there, so a section is also built in code with keyword arguments
-(``GeometrySection(cones=2)``: every other key its default, each value checked by its rule).
-:data:`RULES` is derived from these declarations, so a key's range is stated in exactly one place.
+Each section of a scene is a frozen dataclass; each of its fields is one scene key, declared with :func:`key` (its
+:class:`Rule` and unit). Default values and their sources are written beside the keys in ``defaults.toml`` (a test
+checks that the two list the same keys); :func:`section` gives every field its default from there, so a section is
+also built in code with keyword arguments (``GeometrySection(cones=2)``: every other key its default, each value
+checked by its rule). :data:`RULES` is derived from these declarations: a key's range is stated in one place.
 """
 
 from __future__ import annotations
@@ -322,14 +321,16 @@ class EffectsSection(_Section):
         return getattr(self, f"density_{region}_kg_m3")
 
 
-#: The sections with fixed keys, by name (``materials`` is per region: :data:`MODEL_PARAMETERS`).
-SECTIONS: dict[str, type] = {
+from suture_fem.scene.strength import StrengthSection  # noqa: E402  (it builds on the rules above)
+
+SECTIONS: dict[str, type] = {  # the sections with fixed keys, by name (``materials``: per region, MODEL_PARAMETERS)
     "geometry": GeometrySection,
     "mesh": MeshSection,
     "loading": LoadingSection,
     "solver": SolverSection,
     "output": OutputSection,
     "effects": EffectsSection,
+    "strength": StrengthSection,
 }
 
 #: The ``[materials]`` keys that are not a region's table: ``tissue_scale`` multiplies every tissue

@@ -89,9 +89,11 @@ class NewtonSolver(Linearised):
         t0 = time.perf_counter()
         self.F_form = problem.form("residual")
         self.J_form = problem.form("jacobian")
-        self.guard = guard if guard is not None else DomainGuard.of(problem)
+        kept = getattr(problem, "kept", lambda name, build: build())  # a scene's physics keeps them across solves
+        self.guard = guard if guard is not None else kept("guard", lambda: DomainGuard.of(problem))
+        self.guard.violation = None
         timings.form_compilation += time.perf_counter() - t0
-        self.objective_form = _potential_form(problem)
+        self.objective_form = kept("objective", lambda: _potential_form(problem))
         self.reduction = Reduction(problem, offset)
         self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
         self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)

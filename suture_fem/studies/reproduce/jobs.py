@@ -27,7 +27,7 @@ from suture_fem.scene import Scene
 from suture_fem.studies.reproduce.solve import cpu_self, field_path, solve_case
 from suture_fem.support import children
 from suture_fem.support.errors import SutureFemError
-from suture_fem.support.io import read_json, write_json
+from suture_fem.support.io import open_new, read_json, write_json
 
 log = logging.getLogger("suture_fem")
 
@@ -108,7 +108,7 @@ def _start(cases: dict[int, Scene], out: Path, fields_dir: Path | None,
                                                      "fields_dir": None if fields_dir is None else str(fields_dir)}))
     # -P: the current folder is not on the child's module path (a stray .py there must not run)
     cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "reproduce-ramp", *map(str, files)]
-    logfile = open(files[0].parent / "run.log", "w")  # noqa: SIM115 (closed when the child ends)
+    logfile = open_new(files[0].parent / "run.log")  # closed when the child ends
     proc = children.popen(cmd, stdout=logfile, stderr=subprocess.STDOUT)  # it ends with this process
     return proc.pid, proc, logfile
 

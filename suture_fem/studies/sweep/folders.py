@@ -9,15 +9,14 @@ stopped or invalid; an "error" is retried) unless ``--redo``.
 
 from __future__ import annotations
 
-import fcntl
-import json
 import os
 import shutil
 from pathlib import Path
 from typing import Any
 
 from suture_fem.studies.sweep.plan import SweepError
-from suture_fem.support.io import read_json, this_process, write_json
+from suture_fem.support.folder_lock import FolderInUse, lock_folder, release_folder
+from suture_fem.support.io import read_json, remove, write_json
 
 FINISHED = ("converged", "stopped", "invalid")  # a folder with one of these is not solved again
 
@@ -42,8 +41,8 @@ def finished_scenes(out: Path) -> dict[str, str]:
 
 
 def fresh_folder(folder: Path) -> None:
-    """An empty folder at ``folder`` (whatever was there is removed)."""
-    shutil.rmtree(folder, ignore_errors=True)
+    """An empty folder at ``folder`` (whatever was there is removed; a symlink itself, never its target)."""
+    remove(folder)
     folder.mkdir(parents=True)
 
 
@@ -64,38 +63,18 @@ LOCK_NAME = ".sweep.lock"
 
 
 def take_lock(out: Path) -> Any:
-    """Lock the sweep folder for this sweep's life (``fcntl.flock`` on ``OUT/.sweep.lock``).
+    """Lock the sweep folder for this sweep's life (``fcntl.flock`` on ``OUT/.sweep.lock``, never through a symlink).
 
     Returns the open lock file (the lock goes when :func:`release_lock` removes and closes it, or
     when the process ends, also when it is killed). A folder another sweep holds raises SweepError
     naming its process, host and start time.
     """
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / LOCK_NAME
-    f = open(path, "a+")  # noqa: SIM115 (held open for the sweep's life)
     try:
-        fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        if not path.exists() or os.stat(path).st_ino != os.fstat(f.fileno()).st_ino:
-            f.close()  # the sweep that held it removed it meanwhile: lock the new one
-            return take_lock(out)
-    except OSError:
-        f.seek(0)
-        try:
-            holder = json.loads(f.read())
-            who = f"process {holder['pid']} on {holder['host']} since {holder['started_at']}"
-        except (ValueError, KeyError, TypeError):
-            who = "another process"
-        f.close()
-        raise SweepError(f"sweep folder {out} is in use by {who}; wait for that sweep to end or give "
-                         "another --out") from None
-    f.seek(0)
-    f.truncate()
-    f.write(json.dumps(this_process()) + "\n")
-    f.flush()
-    return f
+        return lock_folder(out, LOCK_NAME, "sweep")
+    except FolderInUse as exc:
+        raise SweepError(str(exc)) from None
 
 
 def release_lock(lock: Any, out: Path) -> None:
     """Remove the lock file (while still holding it, so no one locks a removed file unnoticed) and close it."""
-    (out / LOCK_NAME).unlink(missing_ok=True)
-    lock.close()
+    release_folder(lock, out, LOCK_NAME)

@@ -6,7 +6,7 @@
     suture-fem show SCENE [--set ...]      print the fully resolved scene as JSON
 
 Exit codes: 0 success, 1 a failure (e.g. a full disk), 2 bad scene or arguments, 3 a solve that
-stopped with a diagnosis, 130 interrupted (Ctrl-C, SIGINT), 143 terminated (SIGTERM).
+stopped with a diagnosis, 130 interrupted (Ctrl-C, SIGINT), 143 terminated (SIGTERM), 129 hung up (SIGHUP).
 Under mpirun every rank runs the same command; logs and files come from rank 0 only.
 """
 
@@ -22,7 +22,7 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from suture_fem.support import startup
+from suture_fem.support import children, signals, startup
 from suture_fem.support.errors import Interrupted, SutureFemError, one_line
 from suture_fem.support.logging import setup_logging
 
@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     if ignored and comm.rank == 0:
         print(f"suture-fem: {' and '.join(ignored)} ignored: PETSc options come only from the scene's "
               "solver.petsc_options", file=sys.stderr)
-    previous = _catch_signals()
+    previous = _catch_signals(comm)
     try:
         return _dispatch(args, comm)
     except Interrupted as exc:
@@ -114,19 +114,16 @@ def main(argv: list[str] | None = None) -> int:
         comm.Abort(1)
         raise
     finally:
-        Interrupted.pending = None  # handled (or never raised): later solves in this process start clean
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+        signals.restore(previous)  # handled (or never raised): later solves in this process start clean
         if previous and "gmsh" in sys.modules:
             sys.modules["gmsh"].oldsig = previous[signal.SIGINT]
 
 
-def _raise_interrupted(signum: int, frame: Any) -> None:
-    raise Interrupted(signum)
+def _catch_signals(comm: Any) -> dict[int, Any]:
+    """SIGINT, SIGTERM and SIGHUP end the command in order (:mod:`~suture_fem.support.signals`); the old handlers.
 
-
-def _catch_signals() -> dict[int, Any]:
-    """SIGINT and SIGTERM raise Interrupted (results.json then says "interrupted"); returns the old handlers."""
+    A child process started by :func:`~suture_fem.support.children.popen` also ends with its parent.
+    """
     if threading.current_thread() is not threading.main_thread():
         return {}
     import gmsh
@@ -134,8 +131,10 @@ def _catch_signals() -> dict[int, Any]:
 
     # gmsh sets SIGINT to its default at import and restores the handler it found then at every
     # gmsh.finalize(): make that ours, so Ctrl-C after meshing still ends the run cleanly
-    gmsh.oldsig = _raise_interrupted
-    return {s: signal.signal(s, _raise_interrupted) for s in (signal.SIGINT, signal.SIGTERM)}
+    gmsh.oldsig = signals.handler
+    previous = signals.install(comm.size)
+    children.end_with_parent()
+    return previous
 
 
 def _dispatch(args: argparse.Namespace, comm: Any) -> int:
@@ -216,6 +215,7 @@ def _run_locked(args: argparse.Namespace, scene: Any, comm: Any, out: Path) -> i
 
         results = attach_error_estimate(scene, results, comm, out)
     written = pictures.draw(results, name) if pictures is not None else []
+    signals.check(comm)  # a signal that arrived after the solve (on any rank) still ends every rank alike
     if comm.rank == 0:
         print(summary(results, out, written))
     return 0

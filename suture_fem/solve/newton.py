@@ -61,7 +61,7 @@ from suture_fem.solve.linearised import Linearised
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
 from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale
-from suture_fem.support import compat
+from suture_fem.support import compat, signals
 from suture_fem.support.errors import Interrupted
 
 log = logging.getLogger("suture_fem")
@@ -196,6 +196,7 @@ class NewtonSolver(Linearised):
         return ok
 
     def _residual(self, snes: Any, x: Any, b: Any) -> None:
+        signals.check(self.physics.comm)  # a signal (on any rank) ends the solve here, on every rank
         if not self._trial_admissible(x):
             if not compat.set_function_domain_error(snes):
                 b.set(OUTSIDE_DOMAIN_RESIDUAL)
@@ -251,6 +252,7 @@ class NewtonSolver(Linearised):
 
     def _newton_jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         """SNES's Jacobian: :meth:`_jacobian`, then (MUMPS LDL^T) shifted while it has negative pivots."""
+        signals.check(self.physics.comm)
         self._jacobian(snes, x, A, P)
         pc = snes.getKSP().getPC()
         if not (self.options.inertia_correction and pc.getType() == "cholesky" and self.linear_solver == "mumps"):

@@ -86,9 +86,10 @@ class SolveStopped(SutureFemError, RuntimeError):
 
 
 class Interrupted(KeyboardInterrupt):
-    """SIGINT (Ctrl-C) or SIGTERM arrived: the run ends, results.json says "interrupted".
+    """SIGINT (Ctrl-C), SIGTERM or SIGHUP arrived: the run ends, results.json says "interrupted".
 
-    ``exit_code`` is 128 + the signal's number (130 for SIGINT, 143 for SIGTERM), as a shell reports it.
+    ``exit_code`` is 128 + the signal's number (130 SIGINT, 143 SIGTERM, 129 SIGHUP), as a shell reports
+    it. When and where it is raised: :mod:`suture_fem.support.signals`.
     """
 
     #: The signal raised in this process and not yet handled: a signal that arrives inside a PETSc

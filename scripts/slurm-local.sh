@@ -88,6 +88,15 @@ KillWait=10
 NodeName=$node NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$mem State=UNKNOWN
 PartitionName=debug Nodes=ALL Default=YES MaxTime=INFINITE State=UP OverSubscribe=NO
 EOF
+  # Slurm 24.05 and later (Debian 13: 24.11) detect the cgroup version when slurmd starts and stop on a
+  # hybrid v1/v2 hierarchy ("Hybrid mode is not supported"); "disabled" (new in 24.05) skips cgroups.
+  local version
+  version="$(slurmd -V | grep -oE '[0-9]+\.[0-9]+' | head -n 1)"
+  if [ "$(printf '%s\n' 24.05 "$version" | sort -V | head -n 1)" = 24.05 ]; then
+    echo "CgroupPlugin=disabled" >"$DIR/cgroup.conf"
+  else
+    rm -f "$DIR/cgroup.conf"
+  fi
 }
 
 start_munge() {

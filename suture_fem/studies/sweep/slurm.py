@@ -177,7 +177,7 @@ def submit(sweep: Sweep, opts: SlurmOptions, cli_args: list[str], redo: str | No
     common += [f"--chdir={Path.cwd()}", *opts.extra]
     array = ",".join(str(c.index) for c in todo) + (f"%{opts.max_running}" if opts.max_running else "")
     name = f"--job-name={sweep.path.stem}"
-    record["array_job"] = _sbatch([name, f"--array={array}", f"--ntasks={opts.ranks_per_scene}",
+    record["array_job"] = _sbatch([name, f"--array={array}", "--nodes=1", f"--ntasks={opts.ranks_per_scene}",
                                    f"--output={folder.resolve()}/%A_%a.log", *common], folder / "task.sh")
     record["summary_job"] = _sbatch([f"{name}-summary", f"--dependency=afterany:{record['array_job']}", "--ntasks=1",
                                      f"--output={folder.resolve()}/%j-summary.log", *common], folder / "summary.sh")

@@ -86,3 +86,29 @@ def test_the_batch_script_quotes_what_a_sweep_file_names(tmp_path):
     assert words[-2:] == ["--slurm-task", "$SLURM_ARRAY_TASK_ID"]
     summary = shlex.split(summary_script(sweep, []).splitlines()[-1])
     assert summary[-3:] == ["--out", str(sweep.out.resolve()), "--summary-only"]
+
+
+def test_tasks_and_a_local_sweep_exclude_each_other(tmp_path):
+    from suture_fem.studies.sweep.folders import (
+        release_lock,
+        release_task_locks,
+        scene_busy,
+        take_lock,
+        take_task_locks,
+    )
+
+    out = tmp_path / "out"
+    locks = take_task_locks(out, "001-abc")
+    assert scene_busy(out, "001-abc") and not scene_busy(out, "000-def")
+    other = take_task_locks(out, "000-def")  # tasks of other scenes run side by side
+    with pytest.raises(SweepError, match="001-abc is being solved by another task"):
+        take_task_locks(out, "001-abc")
+    with pytest.raises(SweepError, match="in use"):
+        take_lock(out)  # a local sweep waits for the tasks
+    release_task_locks(out, "001-abc", locks)
+    release_task_locks(out, "000-def", other)
+    assert not scene_busy(out, "001-abc") and not (out / ".001-abc.lock").exists()
+    held = take_lock(out)
+    with pytest.raises(SweepError, match="not a Slurm task"):
+        take_task_locks(out, "001-abc")  # and the tasks for a local sweep
+    release_lock(held, out)

@@ -2,9 +2,10 @@
 
 A small sweep submitted with `suture-fem sweep --slurm` gives every scene the same results.json as
 the same sweep solved locally; a task cancelled while it solves leaves its scene pending, and
-submitting again solves that scene alone. One scene under `srun -n 2 --mpi=pmix` agrees with the
-serial solve. Without a reachable cluster these tests skip, unless SUTURE_SLURM_REQUIRED=1 (set by
-scripts/test-slurm.sh after bringing the cluster up), where they fail.
+submitting again solves that scene alone. One scene under `srun -n 2 --mpi=pmix`, and one scene as
+an array task of 2 ranks (--ranks-per-scene 2), agree with the serial solve. Without a reachable
+cluster these tests skip, unless SUTURE_SLURM_REQUIRED=1 (set by scripts/test-slurm.sh after
+bringing the cluster up), where they fail.
 
 The tests share one sweep folder and run in file order.
 """
@@ -160,5 +161,22 @@ def test_one_scene_on_two_ranks_under_srun(tmp_path, serial_run):
     proc = subprocess.run(cmd, capture_output=True, text=True, env=mpi_env(), cwd=ROOT, timeout=900)
     assert proc.returncode == 0, proc.stderr
     result = json.loads((tmp_path / "results.json").read_text())
+    assert result["mpi_ranks"] == 2
+    assert_same_state(serial_run, result)
+
+
+def test_a_scene_of_two_ranks_as_an_array_task(tmp_path, serial_run):
+    _cluster_up()
+    path = tmp_path / "one.toml"
+    scene = "\n".join(f'"{k}" = {v}' for k, v in (s.split("=", 1) for s in SCENE))
+    path.write_text(f'base = "paper"\n[[scenes]]\n{scene}\n')
+    out = tmp_path / "out"
+    sweep_cli(str(path), "--out", str(out), "--slurm", "--ranks-per-scene", "2", "--time", "30")
+    record = jobs_of(out)[-1]
+    wait_until_gone([record["array_job"], record["summary_job"]])
+    (name,) = record["scenes"].values()
+    status = json.loads((out / name / "status.json").read_text())
+    assert status["status"] == "converged" and status["ranks"] == 2, status
+    result = json.loads((out / name / "results.json").read_text())
     assert result["mpi_ranks"] == 2
     assert_same_state(serial_run, result)

@@ -112,3 +112,24 @@ def test_tasks_and_a_local_sweep_exclude_each_other(tmp_path):
     with pytest.raises(SweepError, match="not a Slurm task"):
         take_task_locks(out, "001-abc")  # and the tasks for a local sweep
     release_lock(held, out)
+
+
+def test_status_reads_the_folders_without_a_cluster(tmp_path, capsys, monkeypatch):
+    from suture_fem.studies.sweep import load_sweep
+    from suture_fem.support.io import write_json
+
+    monkeypatch.setenv("PATH", str(tmp_path))  # no squeue, no sbatch
+    path = tmp_path / "s.toml"
+    path.write_text('base = "paper"\n[grid]\n"geometry.cones" = [1, 2, 3]\n')
+    out = tmp_path / "out"
+    names = [c.name for c in load_sweep(path, [], out).cases]
+    write_json(out / names[1] / "status.json", {"status": "converged"})
+    assert main(["sweep", str(path), "--out", str(out), "--status"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split()[:2] for line in lines[:3]] == [[names[0], "pending"], [names[1], "converged"],
+                                                        [names[2], "pending"]]
+    assert "3 scenes: 1 converged, 2 pending" in lines[3]
+    assert main(["sweep", str(path), "--out", str(out), "--slurm"]) == 1  # no sbatch: one line, nothing written
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "sbatch not found" in err[0]
+    assert sorted(p.name for p in out.iterdir()) == [names[1]]

@@ -179,11 +179,13 @@ def submit(sweep: Sweep, opts: SlurmOptions, cli_args: list[str], redo: str | No
     name = f"--job-name={sweep.path.stem}"
     record["array_job"] = _sbatch([name, f"--array={array}", "--nodes=1", f"--ntasks={opts.ranks_per_scene}",
                                    f"--output={folder.resolve()}/%A_%a.log", *common], folder / "task.sh")
+    record.update(summary_job=None, ranks_per_scene=opts.ranks_per_scene, plan=plan_digest(sweep), sbatch=sbatch)
+    jobs = folder / "jobs.json"
+    previous = read_json(jobs) if jobs.exists() else []
+    write_json(jobs, previous + [record])  # recorded at once: --status and the next submission know the array
     record["summary_job"] = _sbatch([f"{name}-summary", f"--dependency=afterany:{record['array_job']}", "--ntasks=1",
                                      f"--output={folder.resolve()}/%j-summary.log", *common], folder / "summary.sh")
-    record.update(sbatch=sbatch, ranks_per_scene=opts.ranks_per_scene, plan=plan_digest(sweep))
-    jobs = folder / "jobs.json"
-    write_json(jobs, (read_json(jobs) if jobs.exists() else []) + [record])
+    write_json(jobs, previous + [record])
     return record
 
 

@@ -8,8 +8,8 @@
 #   scripts/slurm-local.sh env      print the export line the Slurm commands need (SLURM_CONF)
 #
 # No systemd and no cgroups are used (ProctrackType=proctrack/linuxproc, TaskPlugin=task/none), but
-# slurmd refuses to start without a cgroup file system, so `up` mounts cgroup2 on /sys/fs/cgroup when
-# nothing is mounted there (and `down` unmounts it). Everything else lives in one folder,
+# slurmd refuses to start without a cgroup file system, so `up` mounts one on /sys/fs/cgroup when
+# nothing is mounted there (and `down` unmounts it; see ensure_cgroup_fs). Everything else lives in one folder,
 # $SUTURE_SLURM_DIR (default /var/tmp/suture_fem-slurm): slurm.conf, munge's key and socket, the spool,
 # the logs and the pid files. Slurm's commands find the configuration through SLURM_CONF (`env` prints
 # it); when /etc/slurm/slurm.conf does not exist, `up` links it there as well and `down` removes the link.
@@ -36,7 +36,12 @@ install_packages() {
     slurm-wlm munge libpmix-dev >"$DIR/apt.log" 2>&1 || { tail -5 "$DIR/apt.log" >&2; skip "apt-get install failed"; }
 }
 
-# slurmd needs a cgroup file system even with the cgroup plugins unused.
+# slurmd needs a cgroup file system even with the cgroup plugins unused: Slurm 22.05 stops with "Unable
+# to initialize cgroup plugin" when /sys/fs/cgroup is empty, and with "Hybrid mode is not supported" when
+# cgroup2 is mounted there while the kernel also runs cgroup v1 hierarchies (/proc/self/cgroup lists
+# them). So where nothing is mounted (a chroot, some containers): on such a hybrid kernel a tmpfs with a
+# named v1 hierarchy at systemd/ (what 22.05's cgroup/v1 plugin looks for), else cgroup2. Every mount is
+# recorded in $DIR/mounted and `down` unmounts them in reverse order.
 ensure_cgroup_fs() {
   local fstype
   fstype="$(stat -f -c %T /sys/fs/cgroup 2>/dev/null || true)"
@@ -44,12 +49,34 @@ ensure_cgroup_fs() {
     cgroup2fs | tmpfs) [ -n "$(ls -A /sys/fs/cgroup 2>/dev/null)" ] && return 0 ;;
   esac
   mkdir -p /sys/fs/cgroup 2>/dev/null || true
-  if mount -t cgroup2 none /sys/fs/cgroup 2>"$DIR/mount.log"; then
-    echo /sys/fs/cgroup >"$DIR/mounted"
-    say "mounted cgroup2 on /sys/fs/cgroup (down unmounts it)"
+  : >"$DIR/mounted"
+  if grep -qv '^0::' /proc/self/cgroup; then
+    mount_recorded -t tmpfs -o mode=755,size=1m cgroup_root /sys/fs/cgroup
+    mkdir -p /sys/fs/cgroup/systemd
+    mount_recorded -t cgroup -o none,name=systemd cgroup /sys/fs/cgroup/systemd
   else
-    skip "no cgroup file system on /sys/fs/cgroup and mounting one is not allowed: $(head -1 "$DIR/mount.log")"
+    mount_recorded -t cgroup2 none /sys/fs/cgroup
   fi
+  say "mounted $(awk '$2 ~ "^/sys/fs/cgroup" {print $3 " on " $2}' /proc/mounts | tail -n 2 | paste -sd, -)" \
+    "(down unmounts it)"
+}
+
+mount_recorded() {
+  local target="${*: -1}"
+  if ! mount "$@" 2>"$DIR/mount.log"; then
+    unmount_recorded
+    skip "no cgroup file system on /sys/fs/cgroup and mounting one is not allowed: $(head -n 1 "$DIR/mount.log")"
+  fi
+  echo "$target" >>"$DIR/mounted"
+}
+
+unmount_recorded() {
+  [ -s "$DIR/mounted" ] || { rm -f "$DIR/mounted"; return 0; }
+  local target
+  for target in $(tac "$DIR/mounted"); do
+    umount "$target" || { say "could not unmount $target"; return 1; }
+  done
+  rm -f "$DIR/mounted"
 }
 
 write_conf() {
@@ -179,9 +206,7 @@ down() {
     [ "$(readlink /etc/slurm/slurm.conf 2>/dev/null)" = "$CONF" ] && rm -f /etc/slurm/slurm.conf
     rm -f "$DIR/linked"
   fi
-  if [ -s "$DIR/mounted" ]; then
-    umount "$(cat "$DIR/mounted")" && rm -f "$DIR/mounted"
-  fi
+  unmount_recorded
   say "down in $((SECONDS - t0)) s"
 }
 

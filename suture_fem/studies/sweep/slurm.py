@@ -201,8 +201,8 @@ def queued_tasks(out: Path) -> tuple[dict[str, str], str | None]:
     squeue = shutil.which("squeue")
     if squeue is None or not jobs:
         return {}, None if jobs == [] else "squeue not found"
-    ids = ",".join(j["array_job"] for j in jobs)
-    proc = subprocess.run([squeue, "-h", "-r", "-j", ids, "-o", "%i %T"], capture_output=True, text=True)
+    # All of this user's tasks, matched here: a job id the controller has forgotten cannot fail the query.
+    proc = subprocess.run([squeue, "-h", "-r", "--me", "-o", "%i %T"], capture_output=True, text=True)
     if proc.returncode != 0:
         return {}, (proc.stderr.strip().splitlines() or ["squeue failed"])[-1]
     names = {(j["array_job"], i): n for j in jobs for i, n in j["scenes"].items()}

@@ -13,7 +13,8 @@ started PETSc on its own terms (``options_files_skipped`` says so).
 
 Open MPI's settings (``OMPI_MCA_*``, ``PMIX_MCA_*``) are the user's or the batch system's and are
 honoured, except those that load plug-ins from a folder, read parameter files or name a program to
-start: :func:`check_environment` refuses them in one line (exit 2) before MPI starts.
+start: :func:`check_environment` refuses them in one line (exit 2) before MPI starts, in a process that
+no launcher started (under mpirun or srun the launcher has read them before any rank runs).
 """
 
 from __future__ import annotations
@@ -33,6 +34,10 @@ PETSC_ARGS = ("suture-fem", "-skip_petscrc")
 #: Parts of an Open MPI / PMIx parameter name that load code, read a parameter file or start a program.
 MPI_REFUSED = ("component_path", "param_file", "envar_file", "_agent", "debugger", "output_filename")
 MPI_PREFIXES = ("OMPI_MCA_", "PMIX_MCA_", "PRTE_MCA_")
+#: Set in a rank that mpirun or srun started: the launcher has acted on the settings already (Open MPI 5's
+#: mpirun itself gives every rank ``OMPI_MCA_mca_base_component_path``, its own PMIx folder), so a rank
+#: does not check them again; a process started without a launcher (a singleton) checks them.
+MPI_LAUNCHED = ("OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK")
 
 
 class EnvironmentRefused(SutureFemError):
@@ -48,7 +53,8 @@ def check_environment(environ: Any = None) -> list[str]:
         EnvironmentRefused: one line naming the variable and why.
     """
     environ = os.environ if environ is None else environ
-    for name in sorted(environ):
+    launched = any(environ.get(k) for k in MPI_LAUNCHED)  # the launcher read these already, and sets some
+    for name in sorted(environ) if not launched else ():
         if name.startswith(MPI_PREFIXES) and any(part in name.lower() for part in MPI_REFUSED):
             raise EnvironmentRefused(
                 f"environment variable {name} is refused: it makes Open MPI load plug-ins, read a parameter "

@@ -68,6 +68,17 @@ def test_open_mpi_settings_that_load_or_run_code_are_refused(name, monkeypatch, 
     assert code == 2 and len(err) == 1 and name in err[0] and "unset it" in err[0], err
 
 
+def test_a_rank_started_by_a_launcher_does_not_check_again():
+    # Open MPI 5's mpirun gives every rank OMPI_MCA_mca_base_component_path (its PMIx folder): refusing it
+    # there stopped every `mpirun -n 2 suture-fem ...` on Debian 13; the launcher read the settings already
+    from suture_fem.support.startup import EnvironmentRefused, check_environment
+
+    setting = {"OMPI_MCA_mca_base_component_path": "/usr/lib/x86_64-linux-gnu/pmix2/lib/pmix"}
+    assert check_environment({**setting, "OMPI_COMM_WORLD_SIZE": "2"}) == []
+    with pytest.raises(EnvironmentRefused):
+        check_environment(setting)
+
+
 # ----------------------------------------------------------------------------- the form compiler's files
 
 def test_jit_parameter_files_in_the_current_folder_are_ignored(tmp_path):

@@ -151,7 +151,7 @@ say "dockerd $(docker version -f '{{.Server.Version}}') up, pid $dockerd_pid ($(
 # --- 2. the base image debian:RELEASE --------------------------------------------------------------
 mirrors="$(host_mirrors "$release")"
 key="$(
-  { printf '%s\n%s\n' "$release" "$mirrors"; host_aptopts
+  { printf '%s\n%s\n' "$release" "$mirrors"; host_aptopts; sed -n '/^# --- 2/,/^# --- 3/p' "${BASH_SOURCE[0]}"
     cat /etc/ssl/certs/ca-certificates.crt /etc/pip.conf /etc/xdg/pip/* /root/.config/pip/* 2>/dev/null || true
   } | sha256sum | cut -c1-12
 )"
@@ -170,6 +170,8 @@ if [ "${have%% *}" != "$key" ] || [ "$age_days" -gt "$max_age_days" ] || [ "${SU
   fi
   copy_host_settings "$work/base"
   rm -f "$work/base/etc/resolv.conf"  # the engine provides it
+  # As in the official debian:RELEASE image: dpkg skips its fsync calls inside a build layer.
+  echo force-unsafe-io >"$work/base/etc/dpkg/dpkg.cfg.d/docker-apt-speedup"
   tar --numeric-owner -C "$work/base" -cf - . |
     docker import --change "LABEL suture_fem.base=$key" --change 'CMD ["bash"]' - "debian:$release" >/dev/null
   rm -rf --one-file-system "$work/base"

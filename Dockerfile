@@ -20,7 +20,11 @@ COPY scripts/install.sh scripts/
 RUN bash scripts/install.sh --apt-only && rm -rf /var/lib/apt/lists/*
 COPY . .
 RUN bash scripts/install.sh && rm -rf /root/.cache/pip
-ENV PATH=/opt/suture_fem/.venv/bin:$PATH
+# Docker's default seccomp profile refuses the single-copy read (CMA) of Open MPI's shared-memory
+# transport: Open MPI 4.1 then prints "Read -1, expected N, errno = 1" on every message. Off here,
+# so `mpirun` inside the container needs no extra option.
+ENV PATH=/opt/suture_fem/.venv/bin:$PATH \
+    OMPI_MCA_btl_vader_single_copy_mechanism=none
 WORKDIR /work
 ENTRYPOINT ["suture-fem"]
 CMD ["run", "paper", "--out", "/work/results/paper"]

@@ -10,12 +10,32 @@
 # release ships), so pip never replaces Debian's numpy and the other compiled packages. Any other
 # release stops here with one line and exit code 2. Running it twice is harmless: apt and pip skip
 # what is already there.
+#
+# Each stage prints one line; what apt, venv and pip print goes to the log ($SUTURE_FEM_INSTALL_LOG,
+# default install.log beside this folder), named with its last lines when a stage fails.
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="${SUTURE_FEM_VENV:-$here/.venv}"
 extras="${SUTURE_FEM_EXTRAS:-test}"
 mode="${1:-all}"
+log="${SUTURE_FEM_INSTALL_LOG:-$here/install.log}"
+
+# stage "WHAT" COMMAND...: one line on the terminal, the command's own output in the log.
+stage() {
+  local what="$1" rc=0
+  shift
+  printf 'install.sh: %s ... ' "$what"
+  printf '\n=== %s: %s\n' "$what" "$*" >>"$log"
+  "$@" >>"$log" 2>&1 || rc=$?
+  if [ "$rc" -ne 0 ]; then
+    echo "failed (exit $rc)"
+    echo "install.sh: $what failed; the full log is $log, its last lines:" >&2
+    tail -n 12 "$log" | sed 's/^/  /' >&2
+    exit "$rc"
+  fi
+  echo done
+}
 
 apt_packages=(
   python3-dolfinx python3-gmsh python3-mpi4py python3-petsc4py python3-venv
@@ -56,27 +76,27 @@ missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+: 2>/dev/null >"$log" || log="$(mktemp --suffix=.log -t suture_fem-install.XXXXXX)"
 if ((${#missing[@]})); then
   sudo_cmd=()
   [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
-  echo "install.sh: installing Debian $release packages: ${missing[*]}"
-  "${sudo_cmd[@]}" apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+  stage "updating the Debian package lists" "${sudo_cmd[@]}" apt-get update
+  stage "installing ${#missing[@]} Debian $release packages (${missing[*]:0:3}${missing[3]:+ ...})" \
+    "${sudo_cmd[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends "${missing[@]}"
 fi
 [ "$mode" = --apt-only ] && { echo "install.sh: Debian $release packages ready"; exit 0; }
 
 if [ ! -x "$venv/bin/python" ]; then
-  echo "install.sh: creating $venv from Debian's /usr/bin/python3"
-  /usr/bin/python3 -m venv --system-site-packages "$venv"
+  stage "creating $venv from Debian's /usr/bin/python3" /usr/bin/python3 -m venv --system-site-packages "$venv"
 fi
 
 # Keep pip away from the compiled packages Debian's dolfinx/petsc4py were built against.
-"$venv/bin/python" -m pip install -q --disable-pip-version-check \
-  -c "$constraints" -e "$here[$extras]"
+stage "installing suture_fem[$extras] into $venv (pip)" "$venv/bin/python" -m pip install \
+  --disable-pip-version-check -c "$constraints" -e "$here[$extras]"
 # The Jupyter kernel "suture-fem" runs this environment's Python (the demos name it; ipykernel
 # comes with the test and demos extras). Installed inside the venv, so it shadows nothing else.
 if "$venv/bin/python" -c "import ipykernel" 2>/dev/null; then
-  "$venv/bin/python" -m ipykernel install --sys-prefix --name suture-fem \
-    --display-name "Python (suture_fem)" >/dev/null
+  stage "registering the Jupyter kernel suture-fem" "$venv/bin/python" -m ipykernel install --sys-prefix \
+    --name suture-fem --display-name "Python (suture_fem)"
 fi
-echo "install.sh: ready ($venv, Debian $release)"
+echo "install.sh: ready ($venv, Debian $release; the full log is $log)"

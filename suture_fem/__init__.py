@@ -27,6 +27,10 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
+from suture_fem.support import startup as _startup
+
+_startup.install()  # PETSc, when first imported, starts without option files or PETSC_OPTIONS
+
 __version__ = "0.1.0"
 
 __all__ = ["Model", "Results", "Scene", "SceneError", "SolveStopped", "__version__",

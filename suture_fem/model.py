@@ -43,6 +43,7 @@ from suture_fem.physics.problem import Physics, build_physics
 from suture_fem.scene import Scene
 from suture_fem.solve.records import Timings
 from suture_fem.solve.stepping import ramp
+from suture_fem.support import signals
 from suture_fem.support.errors import SceneError, SolveStopped, StopCause
 
 log = logging.getLogger("suture_fem")
@@ -160,6 +161,7 @@ class Model:
             steps.open_fields()
             history = ramp(self.physics, self.scene, steps.converged, clock.timings)
             steps.close()
+            signals.check(self.comm)  # a signal since the last step (on any rank): interrupted, not converged
         except BaseException as exc:
             steps.ended(exc)
             raise

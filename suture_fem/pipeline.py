@@ -21,10 +21,11 @@ from suture_fem.model import Model, check
 from suture_fem.outputs.results import Results
 from suture_fem.outputs.steps import OUTPUT_FILES, OnReport, output_folder
 from suture_fem.scene import Scene, parse_scene
+from suture_fem.support.errors import SceneError
 
 log = logging.getLogger("suture_fem")
 
-__all__ = ["OUTPUT_FILES", "OnReport", "check", "load_scene", "run_scene", "scene_model", "with_values"]
+__all__ = ["OUTPUT_FILES", "OnReport", "check", "check_ranks", "load_scene", "run_scene", "scene_model", "with_values"]
 
 
 def load_scene(source: str | Path | None = "paper", overrides: list[str] | None = None) -> Scene:
@@ -50,8 +51,23 @@ def scene_model(scene: Scene, out_dir: str | Path | None, comm: Any) -> Model:
     An unusable folder stops every rank before meshing. ``model.solve(out_dir)`` then writes
     results.json there; ``model.reports()`` sets the state of each reported force after the solve.
     """
+    check_ranks(scene, comm)
     output_folder(out_dir, comm)
     return Model(scene, comm, checked=True)
+
+
+def check_ranks(scene: Scene, comm: Any) -> None:
+    """SceneError before any folder or mesh when the scene's linear solver cannot run on ``comm``'s ranks.
+
+    PETSc's own LU factorises on one process only: under MPI it fails inside PETSc (pages of errors).
+    """
+    factor = "pc_factor_mat_solver_type"
+    chosen = {"solver.linear_solver": scene.solver.linear_solver,
+              f"solver.petsc_options.{factor}": scene.solver.petsc_options.get(factor)}
+    for key, value in chosen.items():
+        if comm.size > 1 and value == "petsc":
+            raise SceneError(f'scene key {key} = "petsc": PETSc\'s own LU runs on one process, not on {comm.size} '
+                             'MPI ranks; use "mumps" or "superlu_dist" under mpirun')
 
 
 def run_scene(scene: Scene, out_dir: str | Path | None, comm: Any, on_report: OnReport | None = None) -> Results:

@@ -23,7 +23,6 @@ panels, axes in mm and the colour bar.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -119,12 +118,17 @@ def field_grid(state: Any) -> Any:
 
 def save_grid(grid: Any, path: str | Path) -> Path:
     """Write a grid to ``.vtu`` atomically (temporary name in the same folder, then rename)."""
+    from suture_fem.support.io import commit, temporary_name
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    grid.save(str(tmp))
-    os.replace(tmp, path)
-    return path
+    tmp = temporary_name(path, path.suffix)  # VTK picks the format by the suffix
+    try:
+        grid.save(str(tmp))
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return commit(tmp, path)
 
 
 def load_grid(path: str | Path) -> Any:
@@ -257,12 +261,9 @@ def render_usum(
 
 
 def _save(fig: Any, png: str | Path) -> Path:
-    png = Path(png)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    tmp = png.with_name(f".{png.stem}.{os.getpid()}.tmp.png")
-    fig.savefig(tmp, dpi=130, bbox_inches="tight")
-    os.replace(tmp, png)
-    return png
+    from suture_fem.support.io import save_figure
+
+    return save_figure(fig, png, dpi=130, bbox_inches="tight")
 
 
 # --------------------------------------------------------------------------------------------------

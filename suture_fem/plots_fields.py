@@ -25,6 +25,7 @@ import numpy as np
 
 from suture_fem import plots
 from suture_fem.geometry import regions
+from suture_fem.support.io import save_figure
 
 #: Colour of the suture where only the tissue is coloured.
 SUTURE_GREY = "#9a9a9a"
@@ -143,7 +144,5 @@ def plot_field(model: Any, scalars: str = "usum_mm", title: str = "", norm: Any 
         norm = mcolors.Normalize(0.0, float(np.max(values)))
     fig = field_panels([grid], [title], scalars, LABELS.get(scalars, scalars), norm, cmap, tissue_only)
     if png is not None:
-        png = Path(png)
-        png.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(png, dpi=130, bbox_inches="tight")
+        save_figure(fig, png, dpi=130, bbox_inches="tight")
     return fig

@@ -13,6 +13,8 @@ from typing import Any
 from suture_fem.pipeline import load_scene
 from suture_fem.studies.calibrate import calibrate, load, parse_fit
 from suture_fem.studies.calibrate.study import check_scene
+from suture_fem.support.errors import SceneError
+from suture_fem.support.io import usable_folder
 
 
 def register(subparsers: Any, scene_args: Any) -> None:
@@ -35,11 +37,11 @@ def calibrate_command(args: argparse.Namespace, comm: Any) -> int:
     points = load(args.data)
     keys = [parse_fit(text, scene) for text in args.fit]
     if len({k.key for k in keys}) != len(keys):
-        from suture_fem.support.errors import SceneError
-
         raise SceneError("--fit: a key is given twice")
+    if args.max_evaluations < 1:
+        raise SceneError(f"--max-evaluations {args.max_evaluations}: expected an integer >= 1")
     name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
-    out = Path(args.out or f"results/{name}-calibrate")
+    out = usable_folder(args.out or f"results/{name}-calibrate")
     rec = calibrate(scene, points, keys, comm, out, max_evaluations=args.max_evaluations)
     if comm.rank == 0:
         print(f"suture-fem: {out / 'calibration.md'}")

@@ -21,6 +21,7 @@ from suture_fem.studies.convergence.ladder import FORMULATION_KEY, LEVEL_NAMES, 
 from suture_fem.studies.convergence.singular import solve_rung
 from suture_fem.studies.convergence.study import run_ledger
 from suture_fem.support.errors import SceneError
+from suture_fem.support.io import usable_folder
 
 
 def _int_list(text: str, option: str) -> list[int]:
@@ -95,7 +96,7 @@ def convergence_main(args: argparse.Namespace, comm: Any) -> int:
     ladder = plan_ladder(base, args.scene, args.overrides, degrees, refinements, formulations, forces,
                          args.refine, _caps(args.cap))
     name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
-    out = Path(args.out or f"results/{name}-convergence")
+    out = usable_folder(args.out or f"results/{name}-convergence")
     rungs, analysis = run_ledger(ladder, out, args.title or name, comm, args.inprocess, args.redo, args.report_only)
     if comm.rank == 0:
         print(f"suture-fem: ledger in {out / 'ledger.md'} ({out / 'ledger.json'}, {out / 'ledger.png'})")

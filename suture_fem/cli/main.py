@@ -6,7 +6,7 @@
     suture-fem show SCENE [--set ...]      print the fully resolved scene as JSON
 
 Exit codes: 0 success, 1 a failure (e.g. a full disk), 2 bad scene or arguments, 3 a solve that
-stopped with a diagnosis, 130 interrupted (Ctrl-C, SIGINT), 143 terminated (SIGTERM).
+stopped with a diagnosis, 130 interrupted (Ctrl-C, SIGINT), 143 terminated (SIGTERM), 129 hung up (SIGHUP).
 Under mpirun every rank runs the same command; logs and files come from rank 0 only.
 """
 
@@ -15,20 +15,25 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import signal
 import sys
 import threading
 from pathlib import Path
 from typing import Any
 
-from suture_fem.support.errors import Interrupted, SutureFemError
+from suture_fem.support import children, signals, startup
+from suture_fem.support.errors import Interrupted, SutureFemError, one_line
 from suture_fem.support.logging import setup_logging
 
 #: Modules that add a subcommand: each has ``register(subparsers, scene_args)``, which adds its
 #: parser and sets ``handler=fn`` with ``fn(args, comm) -> int`` as the parser's default.
 COMMAND_MODULES: tuple[str, ...] = ("suture_fem.cli.sweep", "suture_fem.cli.convergence",
                                      "suture_fem.cli.reproduce", "suture_fem.cli.maxload",
-                                     "suture_fem.cli.calibrate")
+                                     "suture_fem.cli.calibrate", "suture_fem.cli.holding")
+
+#: The commands whose interruption leaves a results.json with the last converged step.
+WRITES_RESULTS = ("run", "sweep", "maxload")
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:
@@ -71,22 +76,32 @@ def _scene_name(source: str) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Run one command on MPI's world communicator; returns the exit code (0, 2 bad input, 3 stopped)."""
+    try:
+        ignored = startup.check_environment()  # before MPI starts
+    except SutureFemError as exc:
+        if os.environ.get("OMPI_COMM_WORLD_RANK", "0") == "0":
+            print(f"suture-fem: error: {exc}", file=sys.stderr)
+        return exc.exit_code
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD  # the command line is the one place that picks the communicator
     parser = build_parser()
     args = parser.parse_args(argv)
     setup_logging(comm, args.verbose)
-    previous = _catch_signals()
+    if ignored and comm.rank == 0:
+        print(f"suture-fem: {' and '.join(ignored)} ignored: PETSc options come only from the scene's "
+              "solver.petsc_options", file=sys.stderr)
+    previous = _catch_signals(comm)
     try:
         return _dispatch(args, comm)
     except Interrupted as exc:
         if comm.rank == 0:
-            print(f"suture-fem: interrupted ({exc.name}); results.json keeps the last converged step", file=sys.stderr)
+            kept = "; results.json keeps the last converged step" if args.command in WRITES_RESULTS else ""
+            print(f"suture-fem: interrupted ({exc.name}){kept}", file=sys.stderr)
         return exc.exit_code
     except SutureFemError as exc:
         if comm.rank == 0:
-            print(f"suture-fem: error: {exc}", file=sys.stderr)
+            print(f"suture-fem: error: {one_line(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except Exception:
         if comm.size == 1:
@@ -99,19 +114,16 @@ def main(argv: list[str] | None = None) -> int:
         comm.Abort(1)
         raise
     finally:
-        Interrupted.pending = None  # handled (or never raised): later solves in this process start clean
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+        signals.restore(previous)  # handled (or never raised): later solves in this process start clean
         if previous and "gmsh" in sys.modules:
             sys.modules["gmsh"].oldsig = previous[signal.SIGINT]
 
 
-def _raise_interrupted(signum: int, frame: Any) -> None:
-    raise Interrupted(signum)
+def _catch_signals(comm: Any) -> dict[int, Any]:
+    """SIGINT, SIGTERM and SIGHUP end the command in order (:mod:`~suture_fem.support.signals`); the old handlers.
 
-
-def _catch_signals() -> dict[int, Any]:
-    """SIGINT and SIGTERM raise Interrupted (results.json then says "interrupted"); returns the old handlers."""
+    A child process started by :func:`~suture_fem.support.children.popen` also ends with its parent.
+    """
     if threading.current_thread() is not threading.main_thread():
         return {}
     import gmsh
@@ -119,12 +131,14 @@ def _catch_signals() -> dict[int, Any]:
 
     # gmsh sets SIGINT to its default at import and restores the handler it found then at every
     # gmsh.finalize(): make that ours, so Ctrl-C after meshing still ends the run cleanly
-    gmsh.oldsig = _raise_interrupted
-    return {s: signal.signal(s, _raise_interrupted) for s in (signal.SIGINT, signal.SIGTERM)}
+    gmsh.oldsig = signals.handler
+    previous = signals.install(comm.size)
+    children.end_with_parent()
+    return previous
 
 
 def _dispatch(args: argparse.Namespace, comm: Any) -> int:
-    from suture_fem.pipeline import load_scene
+    from suture_fem.pipeline import check_ranks, load_scene
     from suture_fem.scene import builtin_names
 
     if getattr(args, "handler", None) is not None:
@@ -137,6 +151,8 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
     if args.command == "run" and args.fields:
         overrides.append("output.fields=true")
     scene = load_scene(args.scene, overrides)
+    if args.command == "run":
+        check_ranks(scene, comm)
     if args.command == "show":
         if comm.rank == 0:
             print(json.dumps(scene.as_dict(), indent=2))
@@ -155,15 +171,32 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
     raise AssertionError(args.command)
 
 
+#: The lock file a run holds in its --out for its life (a second run into the folder is refused).
+RUN_LOCK = ".run.lock"
+
+
 def _run(args: argparse.Namespace, scene: Any, comm: Any) -> int:
-    """``suture-fem run``: solve, draw the pictures (unless --no-pictures), print the answer."""
+    """``suture-fem run`` with its --out locked (rank 0 holds ``OUT/.run.lock``) before anything is written."""
+    from suture_fem.support.folder_lock import lock_folder, release_folder
+    from suture_fem.support.parallel import on_root
+
+    out = Path(args.out or f"results/{_scene_name(args.scene)}")
+    lock = on_root(comm, f"locking {out}", lock_folder, out, RUN_LOCK, "run")
+    try:
+        return _run_locked(args, scene, comm, out)
+    finally:
+        if lock is not None:
+            release_folder(lock, out, RUN_LOCK)
+
+
+def _run_locked(args: argparse.Namespace, scene: Any, comm: Any, out: Path) -> int:
+    """Solve, draw the pictures (unless --no-pictures), print the answer."""
     from suture_fem.cli.run_report import Pictures, summary
     from suture_fem.pipeline import scene_model
     from suture_fem.support.errors import SolveStopped
     from suture_fem.support.io import read_json
 
     name = _scene_name(args.scene)
-    out = Path(args.out or f"results/{name}")
     pictures = None if args.no_pictures else Pictures(out, comm)
     model = scene_model(scene, out, comm)
     try:
@@ -182,6 +215,7 @@ def _run(args: argparse.Namespace, scene: Any, comm: Any) -> int:
 
         results = attach_error_estimate(scene, results, comm, out)
     written = pictures.draw(results, name) if pictures is not None else []
+    signals.check(comm)  # a signal that arrived after the solve (on any rank) still ends every rank alike
     if comm.rank == 0:
         print(summary(results, out, written))
     return 0

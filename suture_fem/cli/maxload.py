@@ -12,6 +12,7 @@ from typing import Any
 
 from suture_fem.pipeline import load_scene
 from suture_fem.studies.maxload import max_load
+from suture_fem.support.io import usable_folder
 
 
 def register(subparsers: Any, scene_args: Any) -> None:
@@ -30,12 +31,16 @@ def maxload_command(args: argparse.Namespace, comm: Any) -> int:
     scene = load_scene(args.scene, list(args.overrides))
     up_to = args.up_to if args.up_to is not None else 10.0 * scene.loading.force_n
     name = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
-    out = Path(args.out or f"results/{name}-maxload")
+    out = usable_folder(args.out or f"results/{name}-maxload")
     rec = max_load(scene, comm, up_to, args.tol, out)
     if comm.rank == 0:
         if rec["bracketed"]:
             print(f"suture-fem: the scene carries {rec['bracket_n'][0]:.6g} N and fails at {rec['bracket_n'][1]:.6g} N "
                   f"(tolerance {rec['tolerance_n']:g} N): {rec['cause']}; {out / 'maxload.json'}")
+        elif rec.get("limit") == "physical":
+            lo, hi = rec["bracket_n"]
+            print(f"suture-fem: the scene carries {lo:.6g} N and fails at {hi:.6g} N: {rec['cause']}, a bracket "
+                  f"{rec['width_n']:.3g} N wide, NOT within --tol {rec['tolerance_n']:g} N; {out / 'maxload.json'}")
         elif rec["cause"] is None:
             print(f"suture-fem: carries at least {up_to:g} N (no limit below --up-to); {out / 'maxload.json'}")
         else:

@@ -84,31 +84,77 @@ def _at(rz: list[float]) -> str:
     return f"r = {rz[0]:.2f}, z = {rz[1]:.2f} mm"
 
 
-def summary(results: Any, out: Path, written: list[Path]) -> str:
-    """The answer in a few lines: per report force USUM and the tissue's SEQV and EPTOEQV, where each peaks."""
-    lines = [f"suture-fem: {results['status']}; results in {out / 'results.json'}"]
+#: The converged tissue measures the summary leads with: (label, key in the tissue record, scale, unit).
+CONVERGED = (("SEQV", "seqv_cd_pa", 1e-6, " MPa"), ("EPTOEQV", "eptoeqv_cd", 1.0, ""))
+
+
+def _estimate(results: Any, force_n: float, key: str) -> float | None:
+    """The estimated discretisation error of the tissue's ``key`` at ``force_n`` (``--error-estimate``), if any."""
+    for entry in results.get("error_estimate", {}).get("at_forces", []):
+        if abs(entry["force_n"] - force_n) <= 1e-9 * max(1.0, force_n):
+            return (entry.get(f"regions.tissue.{key}") or {}).get("plus_minus")
+    return None
+
+
+def _converged_line(results: Any, rec: dict[str, Any]) -> str | None:
+    """The tissue's critical-distance SEQV and EPTOEQV (each +- its estimated error where known), or None."""
+    tissue = rec.get("regions", {}).get("tissue", {})
+    cells = []
+    for label, key, scale, unit in CONVERGED:
+        if key not in tissue:
+            continue
+        pm = _estimate(results, rec["force_n"], key)
+        error = f" +- {pm * scale:.2g}" if pm is not None else ""
+        cells.append(f"{label} {tissue[key] * scale:.4g}{error}{unit} at {_at(tissue[f'{key}_at_mm'])}")
+    if not cells:
+        return None
+    radius = results.get("scene", {}).get("output", {}).get("critical_distance_mm")
+    return f"tissue, critical distance {radius:g} mm: " + "; ".join(cells)
+
+
+def _peak_line(rec: dict[str, Any]) -> str | None:
+    """The tissue's raw SEQV and EPTOEQV peaks, marked mesh-dependent, or None."""
+    cells = []
+    for label, key, scale, unit in (("SEQV", "seqv_pa", 1e-6, " MPa"), ("EPTOEQV", "eptoeqv", 1.0, "")):
+        peak = _tissue_peak(rec, key)
+        if peak is not None:
+            cells.append(f"{label} {peak[0] * scale:.4g}{unit} at {_at(peak[1])} ({peak[2]})")
+    return ("tissue peak, maximum over quadrature points (mesh-dependent; singular at a sharp rim): " + "; ".join(cells)
+            if cells else None)
+
+
+def _measures(results: Any) -> str:
+    """The header line: what USUM and the tissue measures are."""
     where = next((r.get("where", {}) for r in results["at_forces"]), {})
+    measures = [f"USUM = {where.get('usum_mm', 'maximum over displacement nodes')}"]
+    if "seqv_cd_pa" in where:
+        radius = results.get("scene", {}).get("output", {}).get("critical_distance_mm")
+        bars = "" if "error_estimate" in results else "; error bars: run with --error-estimate"
+        measures.append(f"tissue SEQV and EPTOEQV averaged over a disc of radius {radius:g} mm where largest "
+                        f"(critical distance; converge under refinement{bars})")
+    elif "seqv_pa" in where or "eptoeqv" in where:
+        measures.append(f"tissue SEQV and EPTOEQV = {where.get('seqv_pa', where.get('eptoeqv'))} "
+                        f"in the {', '.join(TISSUE_REGIONS)}")
+    return "  " + "; ".join(measures)
+
+
+def summary(results: Any, out: Path, written: list[Path]) -> str:
+    """The answer in a few lines: per report force USUM, the tissue's converged measures, then its raw peaks.
+
+    The critical-distance SEQV and EPTOEQV (with their estimated discretisation error after
+    ``--error-estimate``) lead; the raw peaks follow one line below, marked mesh-dependent.
+    """
+    lines = [f"suture-fem: {results['status']}; results in {out / 'results.json'}"]
     if results["at_forces"]:
-        measures = [f"USUM = {where.get('usum_mm', 'maximum over displacement nodes')}"]
-        tissue = [name for name, key in (("SEQV", "seqv_pa"), ("EPTOEQV", "eptoeqv")) if key in where]
-        if tissue:
-            measures.append(f"tissue {' and '.join(tissue)} = {where.get('seqv_pa', where.get('eptoeqv'))} "
-                            f"in the {', '.join(TISSUE_REGIONS)}")
-        lines.append("  " + "; ".join(measures))
+        lines.append(_measures(results))
     model = results.get("effects", {}).get("interfaces")
     if model:
         lines.append(f"  interface: thread {model['thread']}, cones {model['cones']}")
     for rec in results["at_forces"]:
-        cells = []
-        if "usum_mm" in rec:
-            cells.append(f"USUM {rec['usum_mm']:.4g} mm at {_at(rec['usum_mm_at_mm'])} ({rec['usum_mm_region']})")
-        seqv = _tissue_peak(rec, "seqv_pa")
-        if seqv is not None:
-            cells.append(f"tissue SEQV {seqv[0] / 1e6:.4g} MPa at {_at(seqv[1])} ({seqv[2]})")
-        strain = _tissue_peak(rec, "eptoeqv")
-        if strain is not None:
-            cells.append(f"tissue EPTOEQV {strain[0]:.4g} at {_at(strain[1])} ({strain[2]})")
-        lines.append(f"  F = {rec['force_n']:g} N: " + "; ".join(cells))
+        usum = (f"USUM {rec['usum_mm']:.4g} mm at {_at(rec['usum_mm_at_mm'])} ({rec['usum_mm_region']})"
+                if "usum_mm" in rec else "")
+        lines.append(f"  F = {rec['force_n']:g} N: {usum}".rstrip())
+        lines += [f"      {line}" for line in (_converged_line(results, rec), _peak_line(rec)) if line]
         lines.append(f"      thread end {rec['thread_end_displacement_mm']:.4g} mm, reaction "
                      f"{rec['reaction_force_n']:.6g} N")
         if "load_share_n" in rec:

@@ -10,6 +10,7 @@ import argparse
 from typing import Any
 
 from suture_fem.studies.sweep import finished_scenes, load_sweep, log_per_group, run_sweep
+from suture_fem.studies.sweep.plan import SweepError
 from suture_fem.support.errors import SolveStopped
 
 
@@ -31,13 +32,38 @@ def register(subparsers: Any, scene_args: Any) -> None:
     p.add_argument("--fields", action="store_true", help="also write XDMF fields of every scene")
     p.add_argument("--summary-only", action="store_true", help="rebuild the summary from the folders; solve nothing")
     p.add_argument("--list", action="store_true", help="print the scenes, their folders and status; solve nothing")
+    _slurm_args(p)
     p.set_defaults(handler=sweep_command)
+
+
+def _slurm_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("Slurm", "submit the sweep as a job array, one task of K ranks per scene (docs/slurm.md)")
+    g.add_argument("--slurm", action="store_true", help="submit the scenes not finished yet (sbatch) and return")
+    g.add_argument("--status", action="store_true",
+                   help="print every scene's state: its folder's status, or running, queued (Slurm) or pending")
+    g.add_argument("--partition", default=None, help="Slurm partition (default: the cluster's default)")
+    g.add_argument("--time", default=None, metavar="LIMIT", help="time limit of each task, e.g. 30, 1:30:00, 1-12")
+    g.add_argument("--mpi", default="pmix", metavar="TYPE", help="srun --mpi type that starts the ranks (default pmix)")
+    g.add_argument("--max-running", type=int, default=None, metavar="M", help="at most M tasks at a time")
+    g.add_argument("--sbatch", action="append", default=[], metavar="OPTIONS",
+                   help="more sbatch options, e.g. --sbatch='--mem-per-cpu=2G --account=proj' (repeatable)")
+    g.add_argument("--sbatch-file", default=None, metavar="FILE",
+                   help="more sbatch options from a file, one or more per line (#SBATCH prefixes allowed)")
+    g.add_argument("--slurm-task", type=int, default=None, help=argparse.SUPPRESS)
+    g.add_argument("--plan", default=None, help=argparse.SUPPRESS)
 
 
 def sweep_command(args: argparse.Namespace, comm: Any) -> int:
     """List the scenes, or solve the sweep and print the counts; exit 0 only when every scene converged."""
     log_per_group(None, comm.rank == 0)  # per-scene solver chatter stays out of a sweep's log (-v shows it)
     extra = list(args.overrides) + (["output.fields=true"] if args.fields else [])
+    modes = [m for m in ("slurm", "status", "list", "summary_only") if getattr(args, m)]
+    if len(modes) > 1:
+        raise SweepError(f"give at most one of --{' --'.join(m.replace('_', '-') for m in modes)}")
+    if args.slurm or args.status or args.slurm_task is not None:
+        from suture_fem.cli.sweep_slurm import slurm_command
+
+        return slurm_command(args, comm, extra)
     sweep = load_sweep(args.sweep, extra, args.out)
     if args.list:
         if comm.rank == 0:

@@ -20,7 +20,7 @@ from suture_fem.geometry.section import Geometry
 from suture_fem.scene.schema import GeometrySection, MeshSection
 from suture_fem.support import compat
 from suture_fem.support.errors import SceneError
-from suture_fem.support.io import WriteError, commit, temporary_name, why, write_json
+from suture_fem.support.io import WriteError, commit, temporary_name, usable_folder, why, write_json
 from suture_fem.support.parallel import on_root
 
 
@@ -92,6 +92,7 @@ def check_msh_path(path: str | Path) -> Path:
     if path.suffix != ".msh":
         raise SceneError(f"--out {path}: the mesh file's name must end in .msh (its JSON record is written beside "
                          f"it with .json), e.g. --out {path.with_suffix('.msh')}")
+    usable_folder(path.parent, f"--out {path}: its folder")
     return path
 
 
@@ -101,7 +102,7 @@ def _write_checked(gmsh: Any, path: Path) -> None:
     gmsh does not report a short write (a full disk): a file that does not end with a ``$End...``
     line is removed and the error raised instead of being renamed into place.
     """
-    tmp = temporary_name(path).with_suffix(".msh")  # gmsh picks the format by the suffix
+    tmp = temporary_name(path, ".msh")  # gmsh picks the format by the suffix
     try:
         gmsh.write(str(tmp))
         with open(tmp, "rb") as f:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import os
+import shutil
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -62,7 +63,27 @@ class FieldWriter:
         self.u1 = dolfinx.fem.Function(compat.vector_space(mesh, meshmod.geometry_degree(mesh)), name="displacement_m")
         self.vm = dolfinx.fem.Function(compat.scalar_space(mesh, "DG", 0), name="von_mises_pa")
         _quiet_hdf5()
+        self._room_for(_mesh_bytes(mesh) + self._step_bytes())
         self._checked(self._open)
+
+    def _step_bytes(self) -> int:
+        """About the bytes one written state adds to the .h5 (XDMF pads 2-vectors to 3 components)."""
+        dofs = self.u1.function_space.dofmap.index_map.size_global
+        return 8 * (3 * dofs + self.vm.function_space.dofmap.index_map.size_global)
+
+    def _room_for(self, nbytes: int) -> None:
+        """Refuse a write the disk has no room for, on every rank at once (collective).
+
+        Under MPI a full disk fails HDF5's collective write on one rank while the others wait inside
+        the next collective call for ever; checking the free space first keeps every rank together.
+        """
+        comm = self.physics.comm
+        need = nbytes + (64 << 10)  # HDF5 metadata; the estimate is above the true size (a third on the paper scene)
+        need, free = comm.bcast((need, shutil.disk_usage(self.staging).free) if comm.rank == 0 else None, root=0)
+        if free < need:
+            self.discard()
+            raise WriteError(f"writing {self.final.with_suffix('.h5')}: needs about {need / 1024:.0f} KiB, "
+                             f"{free / 1024:.0f} KiB free on the disk of {self.final.parent}; no field files were kept")
 
     def _open(self) -> None:
         self.file = compat.create_xdmf(self.physics.mesh.comm, str(self.staging / self.final.name))
@@ -79,6 +100,7 @@ class FieldWriter:
 
     def write(self, force_n: float) -> None:
         """Append the current state at time ``force_n`` (collective)."""
+        self._room_for(self._step_bytes())
         self.u1.interpolate(self.physics.u)
         if self.outputs.tensor_exprs:
             vm = self.outputs.cell_maxima()["von_mises_pa"]
@@ -100,14 +122,20 @@ class FieldWriter:
     def discard(self) -> None:
         """Drop the partial files after a failure (never raises; rank 0 removes the hidden folder)."""
         file, self.file = self.file, None
-        if file is not None:
-            with contextlib.suppress(Exception):  # the write failed already; the folder goes anyway
-                file.close()
-        if self.physics.comm.rank == 0:
-            # HDF5 keeps a file it failed to flush open: empty it, so its blocks are free for results.json
+        comm = self.physics.comm
+        if comm.rank == 0:
+            # Empty the partial files first: their blocks are free again, so HDF5 can close the file
+            # (on a full disk its close fails, and under MPI the file's destructor then aborts every rank)
             for f in self.staging.glob("*") if self.staging.is_dir() else ():
                 with contextlib.suppress(OSError):
                     os.truncate(f, 0)
+        if file is not None:
+            comm.barrier()
+            try:
+                file.close()
+            except Exception:  # noqa: BLE001 (the write failed already; the folder goes anyway)
+                _keep_unclosed(file)
+        if comm.rank == 0:
             remove(self.staging)
 
     def _move_into_place(self) -> None:
@@ -120,6 +148,24 @@ class FieldWriter:
             remove(self.staging, *(self.final.parent / n for n in names))
             raise
         self.staging.rmdir()
+
+
+def _mesh_bytes(mesh: Any) -> int:
+    """About the bytes of the mesh in the .h5: node coordinates (3 per node) and cells' nodes (int64)."""
+    cells = mesh.topology.index_map(mesh.topology.dim).size_global
+    nodes = mesh.geometry.index_map().size_global
+    return 8 * (3 * nodes + compat.geometry_dofs(mesh).shape[1] * cells)
+
+
+def _keep_unclosed(file: Any) -> None:
+    """Never destroy a file HDF5 failed to close: its C++ destructor would close it again, throw, and abort.
+
+    After a failed write under MPI (a full disk) HDF5 cannot close the file; dolfinx's XDMFFile
+    destructor then throws "Failed to close HDF5 file." and every rank aborts in C++ (exit 134,
+    dozens of lines). The object is given one reference that is never released, so it outlives the
+    interpreter; the operating system closes the descriptor when the process ends.
+    """
+    ctypes.pythonapi.Py_IncRef(ctypes.py_object(file))
 
 
 def _fresh(folder: Path) -> None:

@@ -24,6 +24,7 @@ from suture_fem.outputs.results import Results
 from suture_fem.outputs.snapshots import Snapshot
 from suture_fem.scene import Scene
 from suture_fem.solve.records import Timings
+from suture_fem.support import signals
 from suture_fem.support.errors import SolveStopped, SutureFemError
 from suture_fem.support.io import remove
 from suture_fem.support.parallel import on_root
@@ -96,6 +97,7 @@ class LoadSteps:
         if report:
             self.report(force_n)
         self.save()
+        signals.check(self.comm)  # a signal received meanwhile (on any rank) ends the ramp after this step
 
     def report(self, force_n: float) -> None:
         """The outputs of the current state at a reported force (collective)."""
@@ -119,6 +121,10 @@ class LoadSteps:
         they are removed. A results.json that cannot be written then is logged, not raised, so the
         first error is the one reported.
         """
+        with signals.held():  # a signal now must not leave results.json "running"
+            self._ended(exc)
+
+    def _ended(self, exc: BaseException) -> None:
         if isinstance(exc, SolveStopped):
             self.stopped(exc)
         elif isinstance(exc, KeyboardInterrupt):
@@ -144,8 +150,9 @@ class LoadSteps:
         self.save()
 
     def save(self) -> None:
-        """Stamp the times and rewrite results.json (rank 0, atomically)."""
-        self.results.write(self.path, self.comm, *self.clock.stamp())
+        """Stamp the times and rewrite results.json (rank 0, atomically; a signal meanwhile is raised after)."""
+        with signals.held():
+            self.results.write(self.path, self.comm, *self.clock.stamp())
 
     def close(self) -> None:
         """Close the field file, if any, and move it into place (collective)."""

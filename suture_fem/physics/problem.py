@@ -125,6 +125,7 @@ class Physics:
     parameters: dict[str, Any] = field(default_factory=dict)
     _compiled: dict[str, Any] = field(default_factory=dict, repr=False)
     _derivatives: dict[str, Any] = field(default_factory=dict, repr=False)
+    _kept: dict[str, Any] = field(default_factory=dict, repr=False)
 
     def form(self, name: str) -> Any:
         """The compiled dolfinx form of attribute `name` (residual, jacobian, energy, ...), compiled once."""
@@ -135,6 +136,15 @@ class Physics:
     def compiled(self) -> list[str]:
         """Names of the forms compiled so far."""
         return list(self._compiled)
+
+    def kept(self, name: str, build: Any) -> Any:
+        """``build()``'s result, built once per physics (the Newton solver's guard and energy objective).
+
+        Every solve of a :class:`~suture_fem.Model` would otherwise load them again.
+        """
+        if name not in self._kept:
+            self._kept[name] = build()
+        return self._kept[name]
 
     @property
     def mesh(self) -> Any:

@@ -15,15 +15,17 @@ import copy
 import difflib
 import logging
 import os
+import stat
 import tomllib
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from suture_fem.geometry.regions import REGIONS
+from suture_fem.scene.balance import check_steps, check_tolerances
 from suture_fem.scene.model import Scene
 from suture_fem.scene.schema import MODEL_PARAMETERS, PETSC_OPTIONS, RULES, TISSUE_MODELS, Rule, default_values
-from suture_fem.support.errors import SceneError
+from suture_fem.support.errors import SceneError, shown
 
 log = logging.getLogger("suture_fem")
 
@@ -65,18 +67,33 @@ def read_scene_source(source: str | Path) -> tuple[dict[str, Any], str]:
     return parse_toml(text, where), where
 
 
-def read_text_file(path: Path, where: str) -> str:
-    """The UTF-8 text of a data file (scene or sweep); SceneError in one line when it cannot be read."""
+#: Largest data file (scene, sweep, measured curve) read, in bytes: the paper's scenes are 2-4 KB.
+MAX_FILE_BYTES = 1 << 20
+
+
+def read_text_file(path: Path, where: str, error: type[SceneError] = SceneError) -> str:
+    """The UTF-8 text of a data file (scene, sweep, curve); ``error`` in one line when it cannot be read.
+
+    Only a regular file of at most MAX_FILE_BYTES is read: a device (/dev/zero), a FIFO or a socket
+    would never end or never come, so it is refused before a byte is read (opened without blocking).
+    """
     if path.is_dir():
-        raise SceneError(f"{where} is a folder, not a file")
+        raise error(f"{where} is a folder, not a file")
     if not path.exists():
-        raise SceneError(f"{where} does not exist")
+        raise error(f"{where} does not exist")
     try:
-        return path.read_bytes().decode("utf-8")
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                raise error(f"{where} is not a regular file (a device, FIFO or socket); give a file")
+            data = f.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            raise error(f"{where} is larger than {MAX_FILE_BYTES // 1024} KiB; a data file is a few KB")
+        return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise SceneError(f"{where} is not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
+        raise error(f"{where} is not UTF-8 text (byte {exc.start}); save it as UTF-8") from None
     except OSError as exc:
-        raise SceneError(f"{where} cannot be read: {exc.strerror or exc}") from None
+        raise error(f"{where} cannot be read: {exc.strerror or exc}") from None
 
 
 #: Deepest nesting of tables and arrays a scene or sweep file may use (scenes need three levels).
@@ -112,7 +129,8 @@ def parse_override(text: str) -> tuple[str, Any]:
         raise SceneError(f"--set {text!r}: expected KEY=VALUE, for example geometry.cones=2")
     key, raw = (s.strip() for s in text.split("=", 1))
     if not key:
-        raise SceneError(f"--set {text!r}: empty key")
+        raise SceneError(f"--set {shown(text)}: empty key")
+    check_key_depth(key, "--set")
     try:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
@@ -122,6 +140,13 @@ def parse_override(text: str) -> tuple[str, Any]:
     if _depth(value) > MAX_NESTING:
         raise SceneError(f"--set {key}: value nested too deeply (at most {MAX_NESTING} levels)")
     return key, value
+
+
+def check_key_depth(key: str, where: str) -> None:
+    """SceneError when a dotted key has more parts than any scene key can (a scene key has at most four)."""
+    if key.count(".") >= MAX_NESTING:
+        raise SceneError(f"{where} {shown(key)}: {key.count('.') + 1} dotted parts; a scene key has at most "
+                         f"{MAX_NESTING}, e.g. solver.petsc_options.snes_max_it")
 
 
 def _flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -230,6 +255,8 @@ def validate(scene: dict[str, Any]) -> dict[str, Any]:
         )
     if solver["easy_iterations"] > solver["max_iterations"]:
         raise SceneError("scene key solver.easy_iterations must be <= solver.max_iterations")
+    check_steps(out)
+    check_tolerances(out)
     return out
 
 

@@ -29,6 +29,7 @@ from suture_fem.scene.schema import (
     OutputSection,
     Params,
     SolverSection,
+    StrengthSection,
     default_values,
     frozen,
     plain,
@@ -92,6 +93,7 @@ class Scene:
     solver: SolverSection
     output: OutputSection
     effects: EffectsSection
+    strength: StrengthSection
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Scene:
@@ -104,7 +106,7 @@ class Scene:
     def as_dict(self) -> dict[str, Any]:
         """The JSON-ready nested mapping (results.json ``scene``; the input of ``with_values``)."""
         out: dict[str, Any] = {}
-        for name in ("geometry", "mesh", "materials", "loading", "solver", "output", "effects"):
+        for name in ("geometry", "mesh", "materials", "loading", "solver", "output", "effects", "strength"):
             section = getattr(self, name)
             if name == "materials":
                 out[name] = {"tissue_scale": section.tissue_scale, **{r: section.of(r).as_dict() for r in REGIONS}}

@@ -1,11 +1,10 @@
 """The scene schema: every key once, with its type, allowed range and unit.
 
-Each section of a scene is a frozen dataclass; each of its fields is one scene key, declared with
-:func:`key` (its :class:`Rule` and unit). Default values and their sources are written beside the
-keys in ``defaults.toml`` (a test checks that the two list the same keys); :func:`section` gives every
-field its default from there, so a section is also built in code with keyword arguments
-(``GeometrySection(cones=2)``: every other key its default, each value checked by its rule).
-:data:`RULES` is derived from these declarations, so a key's range is stated in exactly one place.
+Each section of a scene is a frozen dataclass; each of its fields is one scene key, declared with :func:`key` (its
+:class:`Rule` and unit). Default values and their sources are written beside the keys in ``defaults.toml`` (a test
+checks that the two list the same keys); :func:`section` gives every field its default from there, so a section is
+also built in code with keyword arguments (``GeometrySection(cones=2)``: every other key its default, each value
+checked by its rule). :data:`RULES` is derived from these declarations: a key's range is stated in one place.
 """
 
 from __future__ import annotations
@@ -17,7 +16,8 @@ from dataclasses import dataclass, field, fields
 from importlib import resources
 from typing import Any, ClassVar
 
-from suture_fem.support.errors import SceneError
+from suture_fem.scene.balance import BALANCE_TOL, MIN_FORCE_N, MIN_STEP
+from suture_fem.support.errors import SceneError, shown
 
 INF = math.inf
 
@@ -56,7 +56,7 @@ class Rule:
 
     def check(self, key: str, value: Any) -> Any:
         """Return the value (ints widened to float where a float is wanted) or raise SceneError."""
-        bad = SceneError(f"scene key {key} = {value!r}: expected {self.describe()}")
+        bad = SceneError(f"scene key {key} = {shown(value)}: expected {self.describe()}")
         if self.kind == "bool":
             if not isinstance(value, bool):
                 raise bad
@@ -98,8 +98,7 @@ def _pos(hi: float = INF, *, lo: float = 0.0, lo_open: bool = True) -> Rule:
     return Rule("float", lo=lo, hi=hi, lo_open=lo_open)
 
 
-#: Shortest length (mm) a geometric dimension or element size may have: 1 micrometre, far below any
-#: tissue layer or suture feature and above what gmsh can mesh in a model tens of millimetres long.
+#: Shortest length (mm) of a dimension or element size: 1 micrometre, below any tissue layer, above what gmsh meshes.
 MIN_LENGTH_MM = 1e-3
 
 
@@ -245,9 +244,9 @@ class MeshSection(_Section):
 class LoadingSection(_Section):
     """``[loading]``: the pull (a force, or the pulled end's displacement), where it is reported, its time course."""
 
-    force_n: float = key(_pos(1000.0), N)
+    force_n: float = key(Rule("float", lo=MIN_FORCE_N, hi=1000.0), N)
     force_scale: float = key(_pos(100.0))
-    report_forces_n: tuple[float, ...] = key(Rule("floats", lo=0.0, hi=1000.0, lo_open=True), N)
+    report_forces_n: tuple[float, ...] = key(Rule("floats", lo=MIN_FORCE_N, hi=1000.0), N)
     control: str = key(Rule("str", choices=("force", "displacement")))
     displacement_mm: float = key(_pos(100.0), MM)
     report_displacements_mm: tuple[float, ...] = key(Rule("floats", lo=0.0, hi=100.0, lo_open=True), MM)
@@ -259,14 +258,14 @@ class LoadingSection(_Section):
 class SolverSection(_Section):
     """``[solver]``: load stepping, Newton tolerances, linear solver."""
 
-    initial_step: float = key(_pos(1.0))
-    min_step: float = key(_pos(1.0))
-    max_step: float = key(_pos(1.0))
+    initial_step: float = key(Rule("float", lo=MIN_STEP, hi=1.0))
+    min_step: float = key(Rule("float", lo=MIN_STEP, hi=1.0))
+    max_step: float = key(Rule("float", lo=MIN_STEP, hi=1.0))
     grow: float = key(Rule("float", lo=1.0, hi=10.0))
     easy_iterations: int = key(Rule("int", lo=1, hi=100))
     max_iterations: int = key(Rule("int", lo=1, hi=1000))
-    rtol: float = key(_pos(1.0))
-    atol: float = key(_pos(1.0), N)
+    rtol: float = key(_pos(BALANCE_TOL))  # of a step's first residual: a larger one cannot balance the step
+    atol: float = key(_pos(1.0), N)  # also <= BALANCE_TOL x the pull (scene/balance.py)
     linear_solver: str = key(Rule("str", choices=("mumps", "superlu_dist", "petsc")))
     petsc_options: Params = key(Rule("table"))
     inertia_correction: bool = key(Rule("bool"))
@@ -322,14 +321,16 @@ class EffectsSection(_Section):
         return getattr(self, f"density_{region}_kg_m3")
 
 
-#: The sections with fixed keys, by name (``materials`` is per region: :data:`MODEL_PARAMETERS`).
-SECTIONS: dict[str, type] = {
+from suture_fem.scene.strength import StrengthSection  # noqa: E402  (it builds on the rules above)
+
+SECTIONS: dict[str, type] = {  # the sections with fixed keys, by name (``materials``: per region, MODEL_PARAMETERS)
     "geometry": GeometrySection,
     "mesh": MeshSection,
     "loading": LoadingSection,
     "solver": SolverSection,
     "output": OutputSection,
     "effects": EffectsSection,
+    "strength": StrengthSection,
 }
 
 #: The ``[materials]`` keys that are not a region's table: ``tissue_scale`` multiplies every tissue
@@ -359,8 +360,8 @@ PETSC_OPTIONS: dict[str, Rule] = {
     "snes_linesearch_max_it": Rule("int", lo=1, hi=100),
     "snes_max_it": Rule("int", lo=1, hi=1000),
     "snes_max_funcs": Rule("int", lo=1, hi=10**7),
-    "snes_rtol": _pos(1.0),
-    "snes_atol": _pos(1.0),
+    "snes_rtol": _pos(BALANCE_TOL),
+    "snes_atol": _pos(1.0),  # N; also <= BALANCE_TOL x the pull, as solver.atol
     "snes_stol": _pos(1.0, lo_open=False),
     "snes_divergence_tolerance": Rule("float", lo=-1.0, hi=1e300),
     "snes_lag_jacobian": Rule("int", lo=-2, hi=100),

@@ -31,6 +31,8 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
   then stagnates there and a step whose relative test cannot help (the small increments of a time
   history) fails for nothing. Each solve therefore uses max(atol, that floor) as its absolute
   tolerance (:meth:`NewtonSolver.round_off_floor`), and the run records the largest floor it used.
+  The absolute tolerance is also never above ``BALANCE_TOL`` of the force applied at the step: a
+  state is converged only when it balances the pull (:mod:`suture_fem.scene.balance`).
 * Line search fallback. The residual norm is a poor merit function where the tissue is nearly
   incompressible: from rest, the backtracking ("bt") line search creeps with steps of a few percent
   while full Newton steps ("basic") converge quadratically; where full steps leave the admissible
@@ -51,6 +53,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem.physics.effects.friction import settle
+from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.schema import SolverSection
 from suture_fem.solve import inertia
 from suture_fem.solve.guard import DomainGuard, Violation
@@ -58,7 +61,7 @@ from suture_fem.solve.linearised import Linearised
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
 from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale
-from suture_fem.support import compat
+from suture_fem.support import compat, signals
 from suture_fem.support.errors import Interrupted
 
 log = logging.getLogger("suture_fem")
@@ -89,9 +92,11 @@ class NewtonSolver(Linearised):
         t0 = time.perf_counter()
         self.F_form = problem.form("residual")
         self.J_form = problem.form("jacobian")
-        self.guard = guard if guard is not None else DomainGuard.of(problem)
+        kept = getattr(problem, "kept", lambda name, build: build())  # a scene's physics keeps them across solves
+        self.guard = guard if guard is not None else kept("guard", lambda: DomainGuard.of(problem))
+        self.guard.violation = None
         timings.form_compilation += time.perf_counter() - t0
-        self.objective_form = _potential_form(problem)
+        self.objective_form = kept("objective", lambda: _potential_form(problem))
         self.reduction = Reduction(problem, offset)
         self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
         self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
@@ -142,6 +147,7 @@ class NewtonSolver(Linearised):
             self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
             self.A.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
         self.stol = float(base["snes_stol"])  # the increment test in force (a scene may set its own)
+        self.atol = float(base["snes_atol"])  # the absolute residual test asked for (N)
         for key, value in base.items():
             opts[self.prefix + key] = value
         self.snes.setOptionsPrefix(self.prefix)
@@ -190,6 +196,7 @@ class NewtonSolver(Linearised):
         return ok
 
     def _residual(self, snes: Any, x: Any, b: Any) -> None:
+        signals.check(self.physics.comm)  # a signal (on any rank) ends the solve here, on every rank
         if not self._trial_admissible(x):
             if not compat.set_function_domain_error(snes):
                 b.set(OUTSIDE_DOMAIN_RESIDUAL)
@@ -237,10 +244,15 @@ class NewtonSolver(Linearised):
         self.timings.assembly += time.perf_counter() - t0
         if snes.getIterationNumber() == 0:  # the state this solve starts from: set its round-off floor
             self.floor = self.round_off_floor(x)
-            snes.setTolerances(atol=max(self.options.atol, self.floor))
+            snes.setTolerances(atol=self.absolute_tolerance())
+
+    def absolute_tolerance(self) -> float:
+        """The residual test (N): ``snes_atol``, at most BALANCE_TOL x the applied force, at least the floor."""
+        return max(min(self.atol, BALANCE_TOL * force_scale(self.physics)), self.floor)
 
     def _newton_jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         """SNES's Jacobian: :meth:`_jacobian`, then (MUMPS LDL^T) shifted while it has negative pivots."""
+        signals.check(self.physics.comm)
         self._jacobian(snes, x, A, P)
         pc = snes.getKSP().getPC()
         if not (self.options.inertia_correction and pc.getType() == "cholesky" and self.linear_solver == "mumps"):
@@ -260,7 +272,7 @@ class NewtonSolver(Linearised):
         """
         if self.friction is None:
             return self._solve_once()
-        return settle(self.friction, self._solve_once, lambda: max(self.options.atol, self.floor))
+        return settle(self.friction, self._solve_once, self.absolute_tolerance)
 
     def _solve_once(self) -> tuple[bool, int, str]:
         """One SNES solve from the current state (see :meth:`solve`)."""
@@ -270,6 +282,7 @@ class NewtonSolver(Linearised):
         self.last_violation = None
         t0 = time.perf_counter()
         a0 = self.timings.assembly + self.timings.guard
+        self.snes.setTolerances(atol=min(self.snes.getTolerances()[1], BALANCE_TOL * force_scale(self.physics)))
         try:
             self.snes.solve(None, self.x)
             its = self.snes.getIterationNumber()

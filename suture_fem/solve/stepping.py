@@ -42,11 +42,13 @@ from typing import Any
 from petsc4py import PETSc
 
 from suture_fem.physics.problem import Physics
+from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.model import Scene
 from suture_fem.solve.diagnosis import PHYSICAL_LIMIT, failure_text, stop_cause
 from suture_fem.solve.newton import PETSC_ERROR, NewtonSolver
 from suture_fem.solve.paths import DisplacementRamp, GravityPreload, LoadRamp, Path, TimeHistory
 from suture_fem.solve.records import RampResult, StepRecord, Timings
+from suture_fem.solve.stopping import force_scale
 from suture_fem.support import compat
 from suture_fem.support.errors import SolveStopped, StopCause
 
@@ -59,6 +61,8 @@ FUTILE_CUTBACKS = 6
 #: next to a tied corner, steps can succeed at ever smaller increments between failures (P2, 0.885 ->
 #: 0.887 N in 5 minutes on the paper scene) and never trip FUTILE_CUTBACKS; this bounds that cost.
 CONTACT_CUTBACKS = 12
+#: The reason of a solve that met SNES's tests but left the state short of the force balance.
+UNBALANCED = "UNBALANCED"
 #: A step is stretched to the next milestone when less than this fraction of a step would remain.
 MILESTONE_STRETCH = 0.5
 
@@ -234,6 +238,13 @@ class _Stepper:
                          "floor (recorded as residual_floor_n)", newton.floor, newton.options.atol)
             result.floor_above_atol += 1
         result.residual_floor_n = max(result.residual_floor_n, newton.floor)
+        # converged means balanced (scene/balance.py): to BALANCE_TOL of the force, or to the residual's
+        # round-off floor where that is higher (a moved end that takes almost no force)
+        force = force_scale(self.physics) if ok else 0.0  # (collective: under displacement control an assembly)
+        if ok and newton.residual_norm() > max(BALANCE_TOL * force, newton.floor):
+            log.info("Newton stopped (%s) at |R| %.2e N, above %g of the force %.3g N: not balanced", reason,
+                     newton.residual_norm(), BALANCE_TOL, force)
+            ok, reason = False, UNBALANCED
         if ok and self.fraction < 1.0:
             limit = newton.guard.limit_reached(self.fraction)
             if limit is not None:

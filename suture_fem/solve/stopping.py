@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 from petsc4py import PETSc
 
+from suture_fem.scene.balance import BALANCE_TOL
+
 log = logging.getLogger("suture_fem")
 
 #: Newton-increment stopping test (SNES ``stol``): a solve stops when its last increment is below this
@@ -107,10 +109,14 @@ class StopTests:
         energy decrease of a Newton step (about |R|^2 / stiffness) falls below the rounding of the energy
         (measured: the paper scene at P1 stalled at |R| = 6.5e-8 N at 3 N and failed the step). Below
         FULL_STEP_RESIDUAL x force the solve goes on with full Newton steps; an increment stop above it
-        (possibly far from balance) goes on with its own line search.
+        (possibly far from balance) goes on with its own line search, as does any other stop short of
+        BALANCE_TOL x force (a relative test met far from balance).
         """
         reason, reasons = snes.getConvergedReason(), PETSc.SNES.ConvergedReason
         fnorm, force = snes.getFunctionNorm(), self.force()
+        relative = (reasons.CONVERGED_FNORM_RELATIVE, reasons.CONVERGED_SNORM_RELATIVE)
+        if reason in relative and fnorm > BALANCE_TOL * force:
+            return "line search"  # a relative or increment test met short of balance: go on
         if reason == reasons.CONVERGED_SNORM_RELATIVE and fnorm > INCREMENT_STOP_RESIDUAL * force:
             return "full steps" if fnorm < FULL_STEP_RESIDUAL * force else "line search"
         if reason == reasons.CONVERGED_ITS:

@@ -11,7 +11,8 @@ converges, the answer is a lower bound only ("carries at least --up-to").
 
 Writes DIR/maxload.json (the bracket, its cause, the tolerance) next to DIR/results.json (the ramp,
 every converged step kept). Exit code 0 when a bracket or a lower bound was found, 3 when the ramp
-stopped for a numerical reason.
+stopped for a numerical reason. A physical stop whose bracket is wider than ``--tol`` (the cutbacks
+gave up first) is not "bracketed": the record and the message give the width reached.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.scene import Scene
+from suture_fem.scene.balance import MIN_STEP
 from suture_fem.support.errors import SceneError, SolveStopped, StopCause
 from suture_fem.support.io import write_json
 
@@ -31,6 +33,9 @@ def search_scene(scene: Scene, up_to_n: float, tol_n: float) -> Scene:
     """The scene set up for the search: ramp to up_to_n with a minimum step that brackets to tol_n."""
     if not 0 < tol_n < up_to_n:
         raise SceneError(f"maxload: --tol = {tol_n:g} N must be > 0 and < --up-to = {up_to_n:g} N")
+    if tol_n < 2.0 * MIN_STEP * up_to_n:  # the smallest step solver.min_step may take, in newtons
+        raise SceneError(f"maxload: --tol = {tol_n:g} N: the load steps resolve at most {MIN_STEP:g} of --up-to = "
+                         f"{up_to_n:g} N, so --tol must be >= {2.0 * MIN_STEP * up_to_n:.3g} N")
     return scene.with_values({
         "loading.force_n": up_to_n,
         "loading.report_forces_n": [],
@@ -54,15 +59,20 @@ def max_load(scene: Scene, comm: Any, up_to_n: float, tol_n: float, out: Path | 
         })
     except SolveStopped as stop:
         physical = stop.cause in PHYSICAL
+        width = stop.attempted - stop.load_reached
         record.update({
-            "bracketed": physical,
+            "bracketed": physical and width <= tol_n,
+            "tolerance_met": width <= tol_n,
             "cause": stop.cause,
             "limit": "physical" if physical else "numerical",
             "max_force_n": stop.load_reached,
             "bracket_n": [stop.load_reached, stop.attempted],
-            "width_n": stop.attempted - stop.load_reached,
+            "width_n": width,
             "detail": stop.detail,
         })
+        if width > tol_n:
+            record["note"] = (f"the bracket is {width:.3g} N wide, not within --tol = {tol_n:g} N: the step was cut "
+                              "until it failed for good before it was that short (the detail says why)")
     if out is not None:
         on_root(comm, f"writing {out / 'maxload.json'}", write_json, out / "maxload.json", record)
     return record

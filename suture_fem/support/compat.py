@@ -113,6 +113,36 @@ def gmsh_set_distance_sampling(field_tag: int, n: int) -> None:
 JIT_COMPILE_ARGS: tuple[str, ...] = ("-O3", "-g0")
 
 
+def _no_parameter_files() -> tuple[dict[str, Any], dict[str, Any]]:
+    """What the JIT's parameter files say, as seen by the package: nothing (see :func:`ignore_jit_files`)."""
+    return {}, {}
+
+
+def ignore_jit_files() -> None:
+    """Make dolfinx and FFCx ignore their JSON parameter files (in the current folder and the user's).
+
+    dolfinx reads ``dolfinx_jit_parameters.json`` (0.5-0.6; ``dolfinx_jit_options.json`` from 0.7) and
+    FFCx ``ffcx_parameters.json`` (``ffcx_options.json`` from 0.7) from the current folder and from
+    ``$XDG_CONFIG_HOME``, each through a cached loader (``_load_parameters`` / ``_load_options``); such a
+    file moves the kernel cache (a shared library there is loaded and run) or changes how every form
+    is compiled. The package sets its compiler options itself (:data:`JIT_COMPILE_ARGS`); the cache
+    stays ``$XDG_CACHE_HOME/fenics`` (``~/.cache/fenics``).
+    """
+    import importlib
+
+    for name in ("dolfinx.jit", "ffcx.parameters", "ffcx.options"):
+        try:
+            module = importlib.import_module(name)
+        except ImportError:
+            continue
+        for loader in ("_load_parameters", "_load_options"):
+            if hasattr(module, loader):
+                setattr(module, loader, _no_parameter_files)
+
+
+ignore_jit_files()
+
+
 def _jit_params() -> dict[str, Any]:
     key = "jit_params" if "jit_params" in inspect.signature(dolfinx.fem.form).parameters else "jit_options"
     return {key: {"cffi_extra_compile_args": list(JIT_COMPILE_ARGS)}}

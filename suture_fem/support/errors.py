@@ -27,6 +27,23 @@ class StopCause(StrEnum):
     NO_AXIAL_SUPPORT = "no_axial_support"
 
 
+#: Longest value an error message quotes, and longest message printed (characters).
+SHOWN_CHARS = 80
+MESSAGE_CHARS = 1000
+
+
+def shown(value: Any) -> str:
+    """A value as a message quotes it: its repr (control characters escaped), cut to SHOWN_CHARS."""
+    text = repr(value)
+    return text if len(text) <= SHOWN_CHARS else f"{text[:SHOWN_CHARS]}... ({len(text):,} characters)"
+
+
+def one_line(message: str) -> str:
+    """A message as the terminal gets it: control characters escaped, cut to MESSAGE_CHARS."""
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
+    return text if len(text) <= MESSAGE_CHARS else f"{text[:MESSAGE_CHARS]}... ({len(text):,} characters)"
+
+
 class SutureFemError(Exception):
     """Base class; ``exit_code`` is what ``suture-fem`` exits with."""
 
@@ -69,9 +86,10 @@ class SolveStopped(SutureFemError, RuntimeError):
 
 
 class Interrupted(KeyboardInterrupt):
-    """SIGINT (Ctrl-C) or SIGTERM arrived: the run ends, results.json says "interrupted".
+    """SIGINT (Ctrl-C), SIGTERM or SIGHUP arrived: the run ends, results.json says "interrupted".
 
-    ``exit_code`` is 128 + the signal's number (130 for SIGINT, 143 for SIGTERM), as a shell reports it.
+    ``exit_code`` is 128 + the signal's number (130 SIGINT, 143 SIGTERM, 129 SIGHUP), as a shell reports
+    it. When and where it is raised: :mod:`suture_fem.support.signals`.
     """
 
     #: The signal raised in this process and not yet handled: a signal that arrives inside a PETSc

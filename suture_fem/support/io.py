@@ -9,17 +9,19 @@ one. :func:`commit` does the same check and rename for a file another library wr
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import math
 import os
 import platform
 import shutil
+import tempfile
 from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from suture_fem.support.errors import SutureFemError
+from suture_fem.support.errors import SceneError, SutureFemError
 
 
 class WriteError(SutureFemError):
@@ -77,9 +79,12 @@ def commit(tmp: Path, path: Path, size: int | None = None) -> Path:
         WriteError: the file is missing, empty or short, or cannot be flushed (it is removed).
     """
     with _removed_on_failure(tmp, path):
-        with open(tmp, "rb+") as f:
-            os.fsync(f.fileno())
-            actual = os.fstat(f.fileno()).st_size
+        fd = os.open(tmp, os.O_RDWR | os.O_NOFOLLOW)
+        try:
+            os.fsync(fd)
+            actual = os.fstat(fd).st_size
+        finally:
+            os.close(fd)
         if (size is not None and actual != size) or (size is None and actual == 0):
             expected = f"{size} bytes" if size is not None else "some bytes"
             raise WriteError(f"writing {path}: {actual} bytes on disk, expected {expected} "
@@ -102,25 +107,103 @@ def _removed_on_failure(tmp: Path, path: Path) -> Iterator[None]:
         raise
 
 
-def temporary_name(path: Path) -> Path:
-    """The hidden temporary name a file is written under before :func:`commit` renames it."""
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+def usable_folder(path: str | Path, option: str = "--out") -> Path:
+    """``path`` if it is, or can be made, a folder this process writes into; SceneError (exit 2) if not.
+
+    Checked before any work, creating nothing that stays: the path itself, else its nearest existing
+    parent, must be a folder a file can be created in (not a file, not read-only).
+    """
+    path = Path(path)
+    probe = path
+    while not os.path.lexists(probe) and probe.parent != probe:
+        probe = probe.parent
+    if not probe.is_dir():
+        what = "is a file" if probe == path else f"cannot be made: {probe} is a file"
+        raise SceneError(f"{option} {path}: {what}, not a folder; give a folder path")
+    try:  # a probe file, removed at once: root passes every permission test, a read-only disk does not
+        fd, name = tempfile.mkstemp(dir=probe, prefix=".suture-fem-probe-")
+        os.close(fd)
+        os.unlink(name)
+    except OSError as exc:
+        raise SceneError(f"{option} {path}: {probe} cannot be written ({exc.strerror or exc})") from None
+    return path
 
 
-def write_text(path: str | Path, text: str) -> Path:
-    """Write text atomically: a temporary file in the same folder, flushed, checked, then renamed.
+def _file_mode() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+#: The permissions of a new file (what ``open(path, "w")`` would give under this process's umask).
+FILE_MODE = _file_mode()
+
+
+def _create_temporary(path: Path, suffix: str) -> tuple[int, Path]:
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    except OSError as exc:
+        raise WriteError(f"writing {path}: {why(exc, path.parent)}; nothing was written") from None
+    os.fchmod(fd, FILE_MODE)
+    return fd, Path(name)
+
+
+def temporary_name(path: Path, suffix: str = ".tmp") -> Path:
+    """A new empty hidden file beside ``path`` to write under before :func:`commit` renames it.
+
+    Its name is unpredictable and it is created exclusively (``O_CREAT | O_EXCL | O_NOFOLLOW``, as
+    ``tempfile.mkstemp`` does), so a symlink or file planted in the folder is never written through.
+    """
+    fd, tmp = _create_temporary(path, suffix)
+    os.close(fd)
+    return tmp
+
+
+def write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write bytes atomically: a new temporary file in the same folder, flushed, checked, then renamed.
+
+    The rename replaces whatever ``path`` was (a planted symlink too) and never follows it.
 
     Raises:
         WriteError: the disk is full or the file cannot be written (the temporary file is removed).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = temporary_name(path)
-    data = text.encode("utf-8")
-    with _removed_on_failure(tmp, path), open(tmp, "wb") as f:
+    fd, tmp = _create_temporary(path, ".tmp")
+    with _removed_on_failure(tmp, path), open(fd, "wb") as f:
         f.write(data)
         f.flush()
     return commit(tmp, path, len(data))
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    """Write text atomically (UTF-8) as :func:`write_bytes` does."""
+    return write_bytes(path, text.encode("utf-8"))
+
+
+def save_figure(fig: Any, path: str | Path, **savefig: Any) -> Path:
+    """A matplotlib figure as a PNG, complete or absent (rendered in memory, then :func:`write_bytes`)."""
+    import io as _io
+
+    buf = _io.BytesIO()
+    fig.savefig(buf, format="png", **savefig)
+    return write_bytes(path, buf.getvalue())
+
+
+def open_new(path: str | Path, mode: str = "w") -> Any:
+    """Open a file for writing in place (a log), never through a symlink; an existing file is emptied.
+
+    Raises:
+        WriteError: ``path`` is a symlink or cannot be created.
+    """
+    path = Path(path)
+    flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW | getattr(os, "O_CLOEXEC", 0)
+    try:
+        fd = os.open(path, flags, FILE_MODE)
+    except OSError as exc:
+        reason = "it is a symbolic link" if exc.errno == errno.ELOOP else why(exc, path.parent)
+        raise WriteError(f"writing {path}: {reason}; nothing was written") from None
+    return open(fd, mode)  # noqa: SIM115 (the caller closes it)
 
 
 def write_json(path: str | Path, data: Any) -> Path:

@@ -97,11 +97,20 @@ def test_unreadable_scene_file(tmp_path, monkeypatch):
     locked.write_text("[geometry]\ncones = 2\n")
     locked.chmod(0)
     if os.access(locked, os.R_OK):  # root reads anything: make the read fail as it does for a user
-        def refuse(self):
-            raise PermissionError(13, "Permission denied", str(self))
-
-        monkeypatch.setattr(Path, "read_bytes", refuse)
+        _refuse_open(monkeypatch)
     assert "cannot be read: Permission denied" in _error(str(locked))
+
+
+def _refuse_open(monkeypatch):
+    """The scene reader's open fails as it does for a user without read permission."""
+    real_open = os.open
+
+    def refuse(path, *args, **kwargs):
+        if str(path).endswith(".toml"):
+            raise PermissionError(13, "Permission denied", str(path))
+        return real_open(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", refuse)
 
 
 # ----------------------------------------------------------------------------- B14: physical lengths
@@ -210,10 +219,7 @@ def test_sweep_file_nested_thousands_deep(tmp_path):
 
 
 def test_unreadable_sweep_file(tmp_path, monkeypatch):
-    def refuse(self):
-        raise PermissionError(13, "Permission denied", str(self))
-
-    monkeypatch.setattr(Path, "read_bytes", refuse)
+    _refuse_open(monkeypatch)
     assert "cannot be read: Permission denied" in _sweep_error(tmp_path, 'base = "paper"\n')
 
 

@@ -37,8 +37,9 @@ def run(tmp_path_factory):
 def calibrated(tmp_path_factory):
     """The default command: materials.tissue_scale calibrated, the scene solved uncalibrated and calibrated.
 
-    Exit 3: at the calibrated scale (about 0.31) the 1- and 2-cone ramps stop at the epidermis's Gent
-    limit before 4 N (1 cone at about 2.1 N); every paper value (1 and 2 cones at 1 N only) is still solved.
+    Exit 0 although at the calibrated scale (about 0.31) the 1- and 2-cone ramps stop at the epidermis's
+    Gent limit before 4 N (1 cone at about 2.1 N): every paper value (1 and 2 cones at 1 N only) is still
+    solved, and the stops are findings; exit 3 only when a paper value is missing.
     """
     from suture_fem.cli import main
 
@@ -48,7 +49,7 @@ def calibrated(tmp_path_factory):
         args += ["--set", o]
     code = main(args)
     cmp = json.loads((out / "comparison.json").read_text())
-    assert code == (3 if cmp["stopped"] else 0)
+    assert code == (3 if cmp["missing"] else 0)
     results = {n: json.loads((out / f"cones_{n}" / "results.json").read_text()) for n in rp.CONES}
     return out, cmp, results
 

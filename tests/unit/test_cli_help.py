@@ -6,7 +6,8 @@ import pytest
 
 from suture_fem.cli.main import main
 
-COMMANDS = ["run", "mesh", "scenes", "show", "sweep", "ledger-rung", "convergence", "reproduce", "maxload", "calibrate"]
+COMMANDS = ["run", "mesh", "scenes", "show", "sweep", "ledger-rung", "convergence", "reproduce", "maxload", "calibrate",
+            "holding"]
 
 
 @pytest.mark.parametrize("argv", [["--help"]] + [[c, "--help"] for c in COMMANDS])

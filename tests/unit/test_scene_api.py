@@ -34,7 +34,7 @@ def test_a_section_built_in_code_has_the_defaults_of_defaults_toml():
 @pytest.mark.parametrize("build, words", [
     (lambda: GeometrySection(cones=100), ["scene key geometry.cones = 100", "<= 64"]),
     (lambda: GeometrySection(cone_kind="solid"), ["geometry.cone_kind", '"hollow"']),
-    (lambda: LoadingSection(force_n=-1.0), ["loading.force_n", "> 0"]),
+    (lambda: LoadingSection(force_n=-1.0), ["loading.force_n", ">= 1e-06"]),
     (lambda: Scene.builtin("nope"), ["'nope'", "paper"]),
     (lambda: Scene.builtin("paper").with_values({"geometry.conez": 3}), ["geometry.conez", "geometry.cones"]),
     (lambda: Scene.from_values({"mesh.refinement": 9}), ["mesh.refinement", "<= 6"]),

@@ -112,6 +112,13 @@ def uncertainty(keys: list[FitKey], points: list[Point], theta: np.ndarray, r: n
                            "sd": float(sd[j]), "bounds": [key.lo, key.hi], "start": key.start,
                            "sensitivity": key.method, "at_bound": bool(np.isclose(theta[j], key.lo, rtol=1e-6)
                                                                        or np.isclose(theta[j], key.hi, rtol=1e-6))}
+    pinned = [f"{name} = {p['value']:.6g} (bounds {p['bounds'][0]:g}:{p['bounds'][1]:g})"
+              for name, p in params.items() if p["at_bound"]]
+    if pinned:  # the optimum is the bound, not a minimum the data made: its interval is not the data's either
+        verdict = {**verdict, "identifiable": False, "at_bound": pinned,
+                   "verdict": f"NOT determined: {'; '.join(pinned)} stopped at a bound of the search, so the data "
+                              "did not set it (the best fit lies at or beyond the bound); its interval is not "
+                              "meaningful: widen the bounds (--fit KEY=LOW:HIGH) or check the data"}
     estimated = sigma_source == "residual variance" and dof > 0
     return {"parameters": params, "covariance": cov.tolist(), "correlation": np.nan_to_num(corr).tolist(),
             "residuals_mm": (r * s).tolist(), "sigma_mm": math.sqrt(sigma2) if estimated else None,
@@ -124,10 +131,18 @@ def identifiability(keys: list[FitKey], theta: np.ndarray, J: np.ndarray, noise:
     ``noise`` is the 95 % half-width of one weighted residual (quantile times sigma).
     """
     names = [k.key for k in keys]
-    if len(keys) == 1:
-        ok = bool(np.any(J != 0))
-        return {"identifiable": ok, "singular_values": [], "verdict": f"{names[0]} is determined by the data" if ok
-                else f"the data do not depend on {names[0]}"}
+    if len(keys) == 1:  # the same test as the weakest combination below: known within FACTOR at 95 %
+        rel = float(np.linalg.norm(J[:, 0] * theta[0]))
+        factor = math.exp(min(noise / rel, 700.0)) if rel > 0 else math.inf
+        if rel == 0:
+            verdict = f"the data do not depend on {names[0]}"
+        elif factor <= FACTOR:
+            verdict = f"{names[0]} is determined by the data (within a factor {factor:.3g} at 95 %)"
+        else:
+            verdict = (f"NOT determined: the data tell {names[0]} only within a factor {factor:.3g} at 95 % "
+                       f"(allowed: {FACTOR:g})")
+        return {"identifiable": factor <= FACTOR, "singular_values": [], "weakest_factor95": factor,
+                "verdict": verdict}
     rel = J * theta[None, :]  # dr / d ln theta
     _, sv, vt = np.linalg.svd(rel, full_matrices=False)
     ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0

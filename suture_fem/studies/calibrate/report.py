@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from suture_fem.support.io import save_figure
+
 
 def _g(v: float) -> str:
     return f"{v:.4g}"
@@ -92,6 +94,7 @@ def picture(rec: dict[str, Any], path: Path) -> Path:
     ax.set_title("data (error bars) and the fitted model with its 95 % band", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    try:
+        return save_figure(fig, path, dpi=120)  # complete or absent: a kill never leaves a 0-byte picture
+    finally:
+        plt.close(fig)

@@ -37,8 +37,9 @@ from suture_fem.scene import Scene
 from suture_fem.scene.schema import RULES, MeshSection
 from suture_fem.studies.convergence.quantities import QUANTITIES, REFINEMENT_RATIO, force_key
 from suture_fem.studies.convergence.singular import solve_rung
+from suture_fem.support import children
 from suture_fem.support.errors import SceneError
-from suture_fem.support.io import read_json, write_json
+from suture_fem.support.io import open_new, read_json, write_json
 
 log = logging.getLogger("suture_fem")
 
@@ -114,9 +115,9 @@ def _run_subprocess(source: str, rung: Rung, folder: Path) -> dict[str, Any] | N
     cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "ledger-rung", source, *_sets(rung.overrides),
            "--out", str(folder)]
     t0 = time.perf_counter()
-    with open(folder / "run.log", "w") as logfile:
-        proc = subprocess.Popen(cmd, stdout=logfile, stderr=subprocess.STDOUT)
-        _, status, usage = os.wait4(proc.pid, 0)
+    with open_new(folder / "run.log") as logfile, children.running(cmd, stdout=logfile,
+                                                                   stderr=subprocess.STDOUT) as proc:
+        _, status, usage = os.wait4(proc.pid, 0)  # an interrupt here stops the child (children.running)
     proc.returncode = os.waitstatus_to_exitcode(status)
     rung.process_time_s = time.perf_counter() - t0
     rung.exit_code = proc.returncode

@@ -7,7 +7,6 @@
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -15,7 +14,7 @@ from typing import Any
 from suture_fem.studies.convergence.analysis import within
 from suture_fem.studies.convergence.ladder import Ladder, Rung, ladder_key
 from suture_fem.studies.convergence.quantities import REFINEMENT_RATIO, fmt_value
-from suture_fem.support.io import write_json, write_text
+from suture_fem.support.io import save_figure, write_json, write_text
 
 
 def _num(v: float | None, digits: int = 1) -> str:
@@ -203,9 +202,7 @@ def plot(path: Path, title: str, rungs: list[Rung], analysis: dict[str, Any], ti
     handles, labels = axes[0][0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=7, frameon=False)
     fig.tight_layout(rect=(0, (0.2 * legend_rows + 0.3) / height, 1, 1))
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.png")
-    fig.savefig(tmp, dpi=130)
-    os.replace(tmp, path)
+    save_figure(fig, path, dpi=130)
 
 
 def write_ledger(out: Path, title: str, ladder: Ladder, rungs: list[Rung], analysis: dict[str, Any]) -> dict[str, Any]:

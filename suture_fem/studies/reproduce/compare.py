@@ -164,3 +164,21 @@ def trends(results: dict[int, dict[str, Any]]) -> list[dict[str, Any]]:
         alt = series(results, q, [4], FORCES_N, alt=True)
         add(f"{q.split('_')[0].upper()} grows with force (4 cones, 1-4 N)", paper, vals, _rises(vals), alt, _rises(alt))
     return out
+
+
+def missing_values(rows: list[dict[str, Any]]) -> list[str]:
+    """The paper values (misprints aside) the run has no value of ours for: the study's missing deliverables."""
+    return [f"{r['source']} {r['quantity']}, {r['cones']} cone(s) at {r['force_n']:g} N" for r in rows
+            if r["note"] is None and r["ours"] is None]
+
+
+def findings(stopped: dict[int, str], rows: list[dict[str, Any]]) -> list[str]:
+    """Each cone count whose ramp stopped, and whether every value the paper gives for it was reached first."""
+    out = []
+    for n, why in sorted(stopped.items()):
+        lost = [r for r in rows if r["cones"] == n and r["note"] is None and r["ours"] is None]
+        verdict = (f"{len(lost)} of the paper's values for it are missing" if lost else
+                   "past every value the paper gives for it")
+        out.append(f"{n} cone(s): {why} ({verdict})")
+    return out
+

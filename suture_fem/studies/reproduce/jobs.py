@@ -10,7 +10,7 @@ propagate) to ``cones_N/case.json``; the child runs
 :func:`~suture_fem.studies.reproduce.solve.solve_case`, exactly what the serial path runs, and writes
 ``results.json`` (the ramp), ``ramp.json`` (the stop and the bands) and the field files; the parent
 reads them back. Each child's CPU time comes from its rusage (``os.wait4``). When the parent is
-interrupted, its children are terminated.
+interrupted, its children are terminated; when it is killed, they end too (:mod:`~suture_fem.support.children`).
 """
 
 from __future__ import annotations
@@ -25,8 +25,9 @@ from typing import Any
 
 from suture_fem.scene import Scene
 from suture_fem.studies.reproduce.solve import cpu_self, field_path, solve_case
+from suture_fem.support import children
 from suture_fem.support.errors import SutureFemError
-from suture_fem.support.io import read_json, write_json
+from suture_fem.support.io import open_new, read_json, write_json
 
 log = logging.getLogger("suture_fem")
 
@@ -89,8 +90,7 @@ def solve_in_processes(cases: dict[int, Scene], out: Path, comm: Any, fields_dir
             solved.update({n: _collect(n, out / f"cones_{n}", fields_dir, proc.returncode, log_file) for n in group})
     finally:
         for _, proc, logfile, _ in running.values():
-            proc.terminate()
-            proc.wait()
+            children.stop(proc)
             logfile.close()
     return {n: solved[n] for n in cases}, cpu
 
@@ -108,8 +108,8 @@ def _start(cases: dict[int, Scene], out: Path, fields_dir: Path | None,
                                                      "fields_dir": None if fields_dir is None else str(fields_dir)}))
     # -P: the current folder is not on the child's module path (a stray .py there must not run)
     cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "reproduce-ramp", *map(str, files)]
-    logfile = open(files[0].parent / "run.log", "w")  # noqa: SIM115 (closed when the child ends)
-    proc = subprocess.Popen(cmd, stdout=logfile, stderr=subprocess.STDOUT)
+    logfile = open_new(files[0].parent / "run.log")  # closed when the child ends
+    proc = children.popen(cmd, stdout=logfile, stderr=subprocess.STDOUT)  # it ends with this process
     return proc.pid, proc, logfile
 
 

@@ -42,12 +42,23 @@ def comparison_markdown(cmp: dict[str, Any], info: dict[str, Any]) -> str:
         _calibration_text(cmp["calibration"]),
         "",
     ]
+    lines += _findings_section(cmp)
     lines += _values_section(cmp) + _relative_usum_section(cmp) + _trends_section(cmp)
     lines += stress_markdown(cmp.get("stress"))  # the converging measures with their error bars
     lines += ["", "## Files", "", "`comparison.json` (everything above), `cones_N/results.json`, `fields/*.vtu`, "
               "`fig2_usum_4_cones.png`, `fig3_usum_1_n.png`, `fig4_force_displacement.png`, `trends_vs_cones.png`, "
               "`trends_vs_force.png`. See docs/reproduction.md.", ""]
     return "\n".join(lines)
+
+
+def _findings_section(cmp: dict[str, Any]) -> list[str]:
+    """Ramps that stopped (findings) and paper values without ours (missing deliverables), when any."""
+    lines = []
+    if cmp.get("findings"):
+        lines += ["## Findings", "", *(f"- {f}" for f in cmp["findings"]), ""]
+    if cmp.get("missing"):
+        lines += ["## Missing values", "", *(f"- {m}" for m in cmp["missing"]), ""]
+    return lines
 
 
 def _rungs(info: dict[str, Any]) -> str:

@@ -56,7 +56,7 @@ def solve_case(scene: Scene, folder: Path, comm: Any, fields_dir: Path | None = 
     try:
         results = model.solve(folder).to_dict()
     except SolveStopped as stop:
-        log.error("%d cone(s): %s", scene.geometry.cones, stop)
+        log.warning("%d cone(s): %s", scene.geometry.cones, stop)  # a finding; missing values decide the exit
         stopped = str(stop)
         results = comm.bcast(read_json(folder / "results.json") if comm.rank == 0 else None, root=0)
     bands, grids = _at_reports(model, comm, fields_dir, band)

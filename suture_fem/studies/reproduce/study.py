@@ -12,7 +12,7 @@ from suture_fem.scene import Scene
 from suture_fem.studies.calibrate.keys import DIRECT
 from suture_fem.studies.paper import CONES, SCENE, TARGET
 from suture_fem.studies.reproduce.calibration import DEFAULT, calibrate, not_calibrated, parse_key
-from suture_fem.studies.reproduce.compare import comparison, ours
+from suture_fem.studies.reproduce.compare import comparison, findings, missing_values, ours
 from suture_fem.studies.reproduce.figures import figures
 from suture_fem.studies.reproduce.report import comparison_markdown
 from suture_fem.studies.reproduce.rungs import RUNGS
@@ -65,7 +65,8 @@ def reproduce(scene: Scene, out: Path, comm: Any, calibrate_key: str = DEFAULT, 
                      comm.allreduce(cpu_self(children=True) - cpu_start)})
     first = next(iter(results.values()), {})
     cmp.update({"scene": scene.as_dict(), "run": info, "stopped": solved["stopped"], "suture_fem_version": first.get(
-        "suture_fem_version"), "dolfinx_version": first.get("dolfinx_version")})
+        "suture_fem_version"), "dolfinx_version": first.get("dolfinx_version"),
+        "findings": findings(solved["stopped"], cmp["rows"]), "missing": missing_values(cmp["rows"])})
     on_root(comm, "writing comparison.json", write_json, out / "comparison.json", cmp)
     on_root(comm, "writing comparison.md", write_text, out / "comparison.md", comparison_markdown(cmp, info))
     return cmp

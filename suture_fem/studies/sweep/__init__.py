@@ -27,7 +27,8 @@ bad sweep file or arguments.
 
 The modules: ``plan`` (the sweep file, its cases and their folder names), ``folders`` (status files,
 publishing a finished folder), ``run`` (groups of ranks, scheduling, the outcome every rank of a group
-agrees on), ``summary`` (rows, JSON/CSV/Markdown). The names below are the study's public face.
+agrees on), ``summary`` (rows, JSON/CSV/Markdown), ``slurm`` (submitting the scenes as a Slurm job array,
+``--status``) and ``task`` (one array task: one scene). The names below are the study's public face.
 """
 
 from suture_fem.studies.sweep.folders import FINISHED, finished_scenes, read_status

@@ -35,7 +35,7 @@ from typing import Any
 
 from suture_fem.pipeline import load_scene
 from suture_fem.scene import Scene
-from suture_fem.scene.load import parse_toml, read_scene_source, read_text_file
+from suture_fem.scene.load import check_key_depth, parse_toml, read_scene_source, read_text_file
 from suture_fem.support.errors import SceneError
 
 SWEEP_KEYS = ("base", "out", "set", "grid", "scenes")
@@ -140,6 +140,10 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
         if not grid:
             raise SweepError(f"sweep file {path}: [grid] is empty")
         for key, values in grid.items():
+            try:
+                check_key_depth(key, f"sweep file {path}: grid key")
+            except SceneError as exc:
+                raise SweepError(str(exc)) from None
             if not isinstance(values, list) or not values:
                 raise SweepError(f"sweep file {path}: grid key {key}: expected a non-empty list of values")
         variations = [dict(zip(grid, combo)) for combo in itertools.product(*grid.values())]
@@ -149,10 +153,7 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
         variations = [_flatten(t, f"sweep file {path}: scene {i}") for i, t in enumerate(raw["scenes"])]
     common = [f"{k}={toml_value(v)}" for k, v in _flatten(raw.get("set", {}), f"sweep file {path}: [set]").items()]
     common += list(extra or [])
-    if not isinstance(raw.get("out", ""), str):
-        raise SweepError(f"sweep file {path}: key out: expected a folder path as a string, "
-                         f"for example out = \"results/{path.stem}\" (got {raw['out']!r})")
-    out_dir = Path(out) if out is not None else Path(raw.get("out") or f"results/{path.stem}")
+    out_dir = Path(out) if out is not None else _out_folder(raw, path)
     try:
         base_scene, _ = read_scene_source(base)
     except SceneError as exc:
@@ -160,6 +161,23 @@ def load_sweep(path: str | Path, extra: list[str] | None = None, out: str | Path
     cases = [_case(i, base, base_scene, common, v) for i, v in enumerate(variations)]
     varied_keys = list(dict.fromkeys(k for c in cases for k in c.varied))
     return Sweep(path=path, base=base, out=out_dir, cases=cases, varied_keys=varied_keys)
+
+
+def _out_folder(raw: dict[str, Any], path: Path) -> Path:
+    """The sweep file's ``out``: a relative folder inside the current folder (``--out`` may name any folder).
+
+    A sweep file is data someone may have sent: it chooses the folder's name, never its place; an
+    absolute path, ``~`` or ``..`` is refused (the person typing the command gives those with ``--out``).
+    """
+    value = raw.get("out") or f"results/{path.stem}"
+    example = f"for example out = \"results/{path.stem}\""
+    if not isinstance(value, str):
+        raise SweepError(f"sweep file {path}: key out: expected a folder path as a string, {example} (got {value!r})")
+    folder = Path(value)
+    if folder.is_absolute() or value.startswith("~") or ".." in folder.parts:
+        raise SweepError(f"sweep file {path}: key out: expected a folder inside the current folder (relative, no "
+                         f"'..' or '~'), {example} (got {value!r}); give any other folder with --out")
+    return folder
 
 
 def _read(path: Path) -> dict[str, Any]:

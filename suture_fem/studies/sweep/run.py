@@ -260,6 +260,9 @@ def run_sweep(sweep: Sweep, world: Any, ranks_per_scene: int = 1, redo: str | No
     Returns:
         (summary.json's content, this run's record or None), the same on every rank.
     """
+    if ranks_per_scene < 1 or world.size % ranks_per_scene:  # before the folder is made
+        raise SweepError(f"--ranks-per-scene {ranks_per_scene}: expected a divisor of the number of MPI ranks "
+                         f"({world.size})")
     lock = on_root(world, f"locking {sweep.out}", take_lock, sweep.out)  # one sweep per folder at a time
     try:
         last_run = None if summary_only else solve_sweep(sweep, world, ranks_per_scene, redo, schedule)

@@ -61,6 +61,25 @@ def _cell(value: Any) -> str:
     return str(value)
 
 
+#: First characters that make a spreadsheet read a cell as a formula (or a command).
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r", "|", "%")
+
+
+def csv_cell(value: Any) -> str:
+    """A summary value as a CSV cell; text a spreadsheet would run as a formula gets a leading ``'``.
+
+    Numbers (``-1.5``, ``+2e-3``) stay numbers; any other cell beginning with ``= + - @ | %``, a tab or
+    a carriage return is written as ``'=...``, which spreadsheets show as text.
+    """
+    text = _cell(value)
+    if text.startswith(FORMULA_STARTS):
+        try:
+            float(text)
+        except ValueError:
+            return "'" + text
+    return text
+
+
 def write_summary(sweep: Sweep, last_run: dict[str, Any] | None = None) -> dict[str, Any]:
     """Write OUT/summary.{json,csv,md} from the scene folders (and OUT/last_run.json); returns the JSON."""
     rows = summary_rows(sweep)
@@ -73,8 +92,8 @@ def write_summary(sweep: Sweep, last_run: dict[str, Any] | None = None) -> dict[
     write_json(sweep.out / "summary.json", data)
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(columns)
-    writer.writerows([_cell(row[c]) for c in columns] for row in rows)
+    writer.writerow([csv_cell(c) for c in columns])
+    writer.writerows([csv_cell(row[c]) for c in columns] for row in rows)
     write_text(sweep.out / "summary.csv", buf.getvalue())
     md = [f"# Sweep {sweep.path.name}: {len(rows)} scenes of {sweep.base}", "",
           ", ".join(f"{n} {s}" for s, n in sorted(counts.items())), "",

@@ -51,10 +51,7 @@ work="$(mktemp -d /var/tmp/suture_fem-release.XXXXXX)"
 root="$work/root"
 log="$work/build.log"
 
-# A download that failed: the mirror (or the network to it) is out of reach, not a project failure.
-network_failure() {
-  grep -Eq 'Failed to fetch|Temporary failure resolving|Could not resolve|Could not connect|Unable to connect|Connection timed out|Connection refused|Network is unreachable|No route to host|Unable to fetch some archives|Some index files failed to download|Hash Sum mismatch' "$1"
-}
+. "$here/scripts/debian-root.sh"  # network_failure, host_mirrors, host_aptopts, copy_host_settings
 skip() {
   echo "================================================================================"
   echo "SKIPPED: Debian $release root could not be built: $1"
@@ -123,26 +120,6 @@ in_root() {
   ' _ "$root" "${envs[@]}" /bin/bash -c "$1" </dev/null
 }
 
-# This machine's settings that decide which registries it reaches: CA certificates, local apt.conf.d
-# files (those no Debian package owns), pip configuration, DNS.
-copy_host_settings() {
-  local f
-  mkdir -p "$root/etc/ssl/certs" "$root/usr/local/share/ca-certificates" "$root/etc/apt/apt.conf.d"
-  cp -L /etc/ssl/certs/ca-certificates.crt "$root/etc/ssl/certs/ca-certificates.crt"
-  if [ -d /usr/local/share/ca-certificates ]; then
-    cp -a /usr/local/share/ca-certificates/. "$root/usr/local/share/ca-certificates/"
-  fi
-  for f in /etc/apt/apt.conf.d/*; do
-    [ -f "$f" ] || continue
-    dpkg-query -S "$f" >/dev/null 2>&1 || cp "$f" "$root/etc/apt/apt.conf.d/"
-  done
-  cp /etc/pip.conf "$root/etc/pip.conf" 2>/dev/null || true
-  for f in /etc/xdg/pip /root/.config/pip /root/.pip; do  # with the files a pip.conf names there
-    if [ -d "$f" ]; then mkdir -p "$root$f"; cp -a "$f/." "$root$f/"; fi
-  done
-  cp -L /etc/resolv.conf "$root/etc/resolv.conf" 2>/dev/null || true
-}
-
 # --- 1. mmdebstrap --------------------------------------------------------------------------------
 if ! command -v mmdebstrap >/dev/null; then
   say "installing mmdebstrap on this machine"
@@ -155,41 +132,7 @@ if ! command -v mmdebstrap >/dev/null; then
 fi
 
 # --- 2. the Debian root ---------------------------------------------------------------------------
-# This machine's Debian mirrors (deb822 .sources and one-line .list files), with its own suites
-# (host, host-updates, host-security) swapped for the release's.
-host_release="$(. /etc/os-release && echo "${VERSION_CODENAME:-}")"
-mirrors="$(
-  {
-    for f in /etc/apt/sources.list.d/*.sources; do [ -f "$f" ] && { cat "$f"; echo; }; done |
-      awk 'BEGIN {RS=""; FS="\n"} {
-        types=""; uris=""; suites=""; comps=""; enabled="yes"
-        for (i = 1; i <= NF; i++) {
-          if ($i ~ /^#/) continue
-          split($i, kv, ":"); key=tolower(kv[1]); val=substr($i, length(kv[1]) + 2); gsub(/^[ \t]+/, "", val)
-          if (key == "types") types=val; else if (key == "uris") uris=val
-          else if (key == "suites") suites=val; else if (key == "components") comps=val
-          else if (key == "enabled") enabled=val
-        }
-        if (enabled == "no" || types !~ /(^| )deb( |$)/) next
-        nu=split(uris, u, " "); ns=split(suites, s, " ")
-        for (a = 1; a <= nu; a++) for (b = 1; b <= ns; b++) print u[a], s[b], comps
-      }'
-    { cat /etc/apt/sources.list /etc/apt/sources.list.d/*.list 2>/dev/null || true; } |
-      awk '$1 == "deb" { i=2; if ($2 ~ /^\[/) { while ($i !~ /\]$/) i++; i++ }
-                          c=""; for (j = i + 2; j <= NF; j++) c = c " " $j; print $i, $(i+1), substr(c, 2) }'
-  } | awk -v h="$host_release" -v r="$release" '
-      $2 == h || index($2, h "-") == 1 {
-        sfx = substr($2, length(h) + 1)
-        if (sfx != "" && sfx != "-updates" && sfx != "-security") next
-        c = ""; for (j = 3; j <= NF; j++) c = c " " $j
-        print "deb " $1 " " r sfx c
-      }' | sort -u
-)"
-if [ -z "$mirrors" ]; then
-  mirrors="deb http://deb.debian.org/debian $release main
-deb http://deb.debian.org/debian $release-updates main
-deb http://deb.debian.org/debian-security $release-security main"
-fi
+mirrors="$(host_mirrors "$release")"
 say "Debian $release from:"; sed "s/^/    /" <<<"$mirrors"
 
 git clone -q "$here" "$work/src"
@@ -216,14 +159,7 @@ if [ ! -f "$cached.ready" ] || [ "${SUTURE_FEM_REBUILD_ROOT:-0}" = 1 ] ||
   say "building a fresh Debian $release root with mmdebstrap"
   mapfile -t mirror_lines <<<"$mirrors"
   root="$cached.tmp"
-  # apt inside mmdebstrap reads none of this machine's apt.conf.d: pass its local settings (those no
-  # package owns and that run no commands) as options.
-  aptopts=(--aptopt='Acquire::Retries "3"')
-  for f in /etc/apt/apt.conf.d/*; do
-    if [ -f "$f" ] && ! dpkg-query -S "$f" >/dev/null 2>&1 && ! grep -q 'Invoke' "$f"; then
-      aptopts+=(--aptopt="$f")
-    fi
-  done
+  mapfile -t aptopts < <(host_aptopts)
   if ! mmdebstrap --mode=root --variant=minbase "${aptopts[@]}" \
       "$release" "$root" "${mirror_lines[@]}" >"$log" 2>&1 </dev/null; then
     tail -n 30 "$log"
@@ -232,7 +168,7 @@ if [ ! -f "$cached.ready" ] || [ "${SUTURE_FEM_REBUILD_ROOT:-0}" = 1 ] ||
     say "FAILED: mmdebstrap (not a download failure; see above)"; exit 1
   fi
   say "minimal root built ($(took $t))"
-  copy_host_settings
+  copy_host_settings "$root"
   t=$SECONDS
   mkdir -p "$root/tmp/suture_fem/scripts"
   cp "$work/src/scripts/install.sh" "$root/tmp/suture_fem/scripts/"
@@ -261,7 +197,7 @@ if ! mount -t overlay overlay -o "lowerdir=$cached,upperdir=$work/upper,workdir=
 fi
 
 # --- 3. the project inside it ---------------------------------------------------------------------
-copy_host_settings  # again: a package installed above may have rewritten the CA bundle
+copy_host_settings "$root"  # again: a package installed above may have rewritten the CA bundle
 mkdir -p "$root/work"
 mv "$work/src" "$root/work/suture_fem"
 shared="$(cd "$here/.." && pwd)/shared"

@@ -95,7 +95,7 @@ class Holding:
             self.stop = {"cause": stopped.cause, "force_n": stopped.load_reached, "detail": stopped.detail}
 
     def reach(self, start_n: float) -> None:
-        """Pass 1: ramps to start_n, 2 start_n, ... until every part fails at its band's high end, or a stop."""
+        """Pass 1: ramps to start_n, 2 start_n, ... until a part fails with every strength at its band's high end."""
         cap = min(self.up_to_n, strengths(self.scene, "high")["thread"])
         top = min(start_n, cap)
         while True:

@@ -48,7 +48,10 @@ def lock_folder(out: Path, name: str, what: str) -> Any:
     Raises:
         FolderInUse: another process holds it (naming it), or the lock file is a symlink, FIFO or hard link.
     """
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # a file in the way, no permission, a full disk: exit 1 as any write that fails
+        raise SutureFemError(f"creating the output folder {out}: {why(exc, out.parent)}") from None
     path = out / name
     f = _open_lock_file(path, what)
     try:

@@ -171,6 +171,7 @@ def test_synthetic_truth_inside_interval(scene, truth):
     assert rec["identifiability"]["identifiable"]
 
 
+@pytest.mark.long  # 15-25 s: benchmarks/long_tests.py runs it
 def test_fitted_curve_and_usum_carry_their_linearised_band(scene, case, truth, tmp_path):
     """Propagation: the thread end's curve, USUM and the tissue's stress measures at the fitted scale, each with
     the band q * sd * |dy/dp|; the value equals a solve at the fitted scale, the slope a central difference."""

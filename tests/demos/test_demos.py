@@ -49,8 +49,13 @@ def test_kernel_runs_this_environment():
     assert Path(spec.argv[0]).absolute() == Path(sys.executable).absolute()
 
 
+#: The demos that take longest as notebooks (20-30 s each): in the long tests (benchmarks/long_tests.py).
+LONG_DEMOS = ("cone_design", "paper_reproduction", "hard_cases", "effects")
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("path", DEMOS, ids=[p.stem for p in DEMOS])
+@pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.long) if p.stem in LONG_DEMOS else p
+                                  for p in DEMOS], ids=[p.stem for p in DEMOS])
 def test_demo_runs_as_notebook(path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     nb = jupytext.read(path)
     assert nb.metadata.get("kernelspec", {}).get("name") == KERNEL, f"{path.name}: kernelspec must be {KERNEL!r}"

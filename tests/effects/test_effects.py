@@ -132,6 +132,7 @@ def test_gravity_weighs_the_tissue_down_and_balances(tmp_path, elastic):
     assert results["thread_end_displacement_mm"] < elastic[0]["thread_end_displacement_mm"]
 
 
+@pytest.mark.long  # 15-25 s: benchmarks/long_tests.py runs it
 def test_damped_hold_converges_to_the_quasi_static_answer(tmp_path, elastic):
     """A 20 ms ramp sets the thread end ringing (period about 3.7 ms); Rayleigh damping (alpha = 400/s: an
     e-folding time 2 / alpha = 5 ms; beta = 1e-4 s for the stiff suture's modes) together with the

@@ -88,6 +88,7 @@ def test_run_error_estimate_attaches_plus_minus(tmp_path):
     assert average["plus_minus"] < 0.5 * average["value"]
 
 
+@pytest.mark.long  # 15-25 s: benchmarks/long_tests.py runs it
 def test_convergence_command_writes_the_ledger(tmp_path):
     """Three rim levels of a one-cone scene, each its own `suture-fem run` process."""
     from suture_fem.cli import main

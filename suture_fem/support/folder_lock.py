@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from suture_fem.support.errors import SutureFemError
-from suture_fem.support.io import FILE_MODE, this_process, why
+from suture_fem.support.io import FILE_MODE, not_opened, this_process, why
 
 
 class FolderInUse(SutureFemError):
@@ -32,7 +32,7 @@ def _open_lock_file(path: Path, what: str) -> Any:
     try:
         fd = os.open(path, flags, FILE_MODE)
     except OSError as exc:
-        reason = "it is a symbolic link; remove it" if exc.errno == errno.ELOOP else why(exc, path.parent)
+        reason = not_opened(exc, path) + ("; remove it" if exc.errno == errno.ELOOP else "")
         raise FolderInUse(f"{what} folder {path.parent}: cannot open the lock file {path.name}: {reason}") from None
     info = os.fstat(fd)
     if not stat.S_ISREG(info.st_mode) or info.st_nlink != 1:

@@ -201,9 +201,13 @@ def open_new(path: str | Path, mode: str = "w") -> Any:
     try:
         fd = os.open(path, flags, FILE_MODE)
     except OSError as exc:
-        reason = "it is a symbolic link" if exc.errno == errno.ELOOP else why(exc, path.parent)
-        raise WriteError(f"writing {path}: {reason}; nothing was written") from None
+        raise WriteError(f"writing {path}: {not_opened(exc, path)}; nothing was written") from None
     return open(fd, mode)  # noqa: SIM115 (the caller closes it)
+
+
+def not_opened(exc: OSError, path: Path) -> str:
+    """Why an ``O_NOFOLLOW`` open of ``path`` failed, in a few words (a planted symlink named as such)."""
+    return "it is a symbolic link" if exc.errno == errno.ELOOP else why(exc, path.parent)
 
 
 def write_json(path: str | Path, data: Any) -> Path:

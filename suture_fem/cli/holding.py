@@ -77,7 +77,7 @@ def holding_command(args: argparse.Namespace, comm: Any) -> int:
     lock = on_root(comm, f"locking {out}", lock_folder, out, HOLDING_LOCK, "holding")
     try:
         rec = holding(scene, comm, args.up_to, args.tol, calibration, out, pictures=not args.no_pictures,
-                      name=name, grid=args.reports)
+                      name=name, grid=args.reports, checked=True)
     finally:
         if lock is not None:
             release_folder(lock, out, HOLDING_LOCK)

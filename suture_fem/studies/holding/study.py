@@ -120,12 +120,13 @@ class Holding:
 
 def holding(scene: Scene, comm: Any, up_to_n: float | None = None, tol_n: float = 0.01,
             calibration: dict[str, Any] | None = None, out: Path | None = None,
-            pictures: bool = True, name: str = "scene", grid: int = GRID) -> dict[str, Any]:
+            pictures: bool = True, name: str = "scene", grid: int = GRID, checked: bool = False) -> dict[str, Any]:
     """Bracket the first failure of ``scene``; returns the holding record (and writes it under ``out``).
 
     ``calibration``: a calibration record (calibration.json); each calibrated key is set to its value,
     and the band also spans its 95 % interval. ``grid``: reported forces per ramp (each costs the
     critical-distance searches; fewer make each pass cheaper and the narrowing take more passes).
+    ``checked``: the scene passed :func:`suture_fem.model.check` already (the command line's), not again.
     """
     from suture_fem.model import Model
 
@@ -137,7 +138,7 @@ def holding(scene: Scene, comm: Any, up_to_n: float | None = None, tol_n: float 
     if calibrated:
         scene = scene.with_values(calibrated)
     t0 = time.process_time()
-    model = Model(scene, comm)
+    model = Model(scene, comm, checked=checked and not calibrated)  # calibrated keys may be lengths
     study = Holding(model, up_to, tol_n, grid)
     study.reach(scene.loading.force_n)
     band = [study.narrow(end) for end in ("low", "high")]  # the band's ends bracketed to tol too

@@ -29,6 +29,7 @@ class Projection:
     tangent: np.ndarray
     segment: np.ndarray
     corner: np.ndarray
+    curvature: np.ndarray
 
 
 def _line(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -85,23 +86,30 @@ def project(points: np.ndarray, outline: list) -> Projection:
 
     A tie between two segments (a corner) keeps the earlier segment's arc length. The normal is the
     signed distance's gradient: (point - nearest) / distance, turned outward; on the outline itself the
-    segment's outward normal. ``corner``: the nearest point is a corner (an end of its segment) off the point:
-    the signed distance is then the distance to that point, whose Hessian is (I - n n^T) / distance.
+    segment's outward normal. ``corner``: the nearest point is a corner (an end of its segment) off the point.
+    ``curvature`` (1/mm): the signed distance's Hessian is curvature (I - n n^T): 0 beside a straight
+    segment, +-1 / (distance to the centre) beside an arc (+ where the cone is convex), sign / distance off
+    a corner.
     """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     n = len(points)
     best = np.full(n, np.inf)
     out = {"s": np.zeros(n), "near": np.zeros((n, 2)), "tangent": np.zeros((n, 2)), "segment": np.zeros(n, int),
-           "end": np.zeros(n, bool)}
+           "end": np.zeros(n, bool), "curvature": np.zeros(n)}
     start = 0.0
     for k, (kind, seg) in enumerate(outline):
         pts = [np.array(v, dtype=float) for v in seg]
         near, s, tangent, length, end = _line(points, *pts) if kind == "line" else _arc(points, *pts)
         dist = np.linalg.norm(points - near, axis=1)
-        closer = dist < best - 1e-12
+        closer = dist < best - 1e-9  # a tie (a corner shared by two segments) keeps the earlier segment
         best[closer] = dist[closer]
         out["s"][closer], out["near"][closer] = start + s[closer], near[closer]
         out["tangent"][closer], out["segment"][closer], out["end"][closer] = tangent[closer], k, end[closer]
+        if kind == "arc":  # the distance to a circle bends by 1 / (distance to its centre): + convex, - concave
+            convex = 1.0 if inside(pts[1][None, :], outline)[0] else -1.0
+            out["curvature"][closer] = convex / np.maximum(np.linalg.norm(points - pts[1], axis=1), 1e-300)[closer]
+        else:
+            out["curvature"][closer] = 0.0
         start += length
     poly = _vertices(outline)
     ccw = 0.5 * float(np.sum(poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1])) > 0
@@ -111,5 +119,7 @@ def project(points: np.ndarray, outline: list) -> Projection:
     offset = points - out["near"]
     normal = np.where((best > ON_CORNER_MM)[:, None], sign[:, None] * offset / np.maximum(best, 1e-300)[:, None],
                       outward)
+    corner = out["end"] & (best > ON_CORNER_MM)
+    curvature = np.where(corner, sign / np.maximum(best, 1e-300), out["curvature"])
     return Projection(s=out["s"], distance=sign * best, normal=normal, tangent=out["tangent"], segment=out["segment"],
-                      corner=out["end"] & (best > ON_CORNER_MM))
+                      corner=corner, curvature=curvature)

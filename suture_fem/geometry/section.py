@@ -32,12 +32,35 @@ MIN_GAP_MM = 5e-3
 
 @dataclass(frozen=True)
 class Cone:
-    """One cone: its closed outline (counter-clockwise not guaranteed) and its corner points."""
+    """One cone: its closed outline (counter-clockwise not guaranteed) and its corner points.
+
+    ``points`` are the outline's vertices before filleting and ``radii`` the fillet radius at each filleted one.
+    """
 
     base_z: float
     apex_z: float
     outline: list[Segment]
     corners: list[Point]
+    points: list[Point] = field(default_factory=list)
+    radii: dict[int, float] = field(default_factory=dict)
+
+    def rounded(self, radius: float, r_thread: float) -> list[Segment]:
+        """The outline with every sharp convex corner off the thread rounded by ``radius`` (the fillets kept).
+
+        The contact search's outline: a convex corner's outward normal jumps, so a node pressed into it
+        would have two equilibria; a rounded one turns the normal continuously. A re-entrant corner stays
+        sharp (rounding it would put cone inside the tissue's nodes there).
+        """
+        pts = self.points
+        area = sum(p[0] * q[1] - q[0] * p[1] for p, q in zip(pts, pts[1:] + pts[:1]))
+
+        def convex(i: int) -> bool:
+            a, b, c = pts[i - 1], pts[i], pts[(i + 1) % len(pts)]
+            return ((b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])) * area > 0
+
+        off = [i for i, p in enumerate(pts) if p[0] > r_thread + 1e-9 and (i in self.radii or convex(i))]
+        fit = {i: min(radius, 0.5 * _max_radius(pts, i)) for i in off}  # short edges get smaller ones
+        return _outline(pts, {i: self.radii.get(i, fit[i]) for i in off})
 
 
 @dataclass(frozen=True)
@@ -154,29 +177,26 @@ def _cone(g: GeometrySection, z_lo: float, r_t: float, r_base: float, r_top: flo
         mid = z_b + z_a
         pts = [(r, mid - z) for r, z in pts]
         corners = [(r, mid - z) for r, z in corners]
-    outline = _outline(pts, fillet_at if fillet > 0 else set(), fillet)
-    return Cone(base_z=base_z, apex_z=apex_z, outline=outline, corners=corners)
+    radii = {i: fillet for i in fillet_at} if fillet > 0 else {}
+    return Cone(base_z=base_z, apex_z=apex_z, outline=_outline(pts, radii), corners=corners, points=pts, radii=radii)
 
 
-def _outline(pts: list[Point], fillet_at: set[int], radius: float) -> list[Segment]:
-    """Closed polyline through pts, with a circular fillet of `radius` at the vertices in fillet_at."""
+def _outline(pts: list[Point], radii: dict[int, float]) -> list[Segment]:
+    """Closed polyline through pts, with a circular fillet of ``radii[i]`` at each vertex i it names."""
     n = len(pts)
     starts: list[Point] = list(pts)
     ends: list[Point] = list(pts)
     arcs: dict[int, tuple[Point, Point, Point]] = {}
-    for i in fillet_at:
+    for i, radius in sorted(radii.items()):
         p, prev, nxt = pts[i], pts[i - 1], pts[(i + 1) % n]
         u = _unit(prev, p)
         v = _unit(nxt, p)
-        cos_t = max(-1.0, min(1.0, u[0] * v[0] + u[1] * v[1]))
-        theta = math.acos(cos_t)
+        theta = math.acos(max(-1.0, min(1.0, u[0] * v[0] + u[1] * v[1])))
         t = radius / math.tan(theta / 2)  # distance from the corner to each tangent point
-        max_t = 0.45 * min(_dist(p, prev), _dist(p, nxt))
-        if t > max_t:
-            limit = max_t * math.tan(theta / 2)
+        if radius > _max_radius(pts, i):
             raise SceneError(
                 f"scene key geometry.cone_fillet_mm = {radius:g} is too large for the cone's rim: "
-                f"allowed range 0 to {limit:.4g} mm for this cone"
+                f"allowed range 0 to {_max_radius(pts, i):.4g} mm for this cone"
             )
         a = (p[0] + t * u[0], p[1] + t * u[1])
         b = (p[0] + t * v[0], p[1] + t * v[1])
@@ -192,6 +212,14 @@ def _outline(pts: list[Point], fillet_at: set[int], radius: float) -> list[Segme
         if j in arcs:
             segments.append(("arc", arcs[j]))
     return segments
+
+
+def _max_radius(pts: list[Point], i: int) -> float:
+    """The largest fillet at vertex i whose tangent points stay within 45 % of each edge from it."""
+    p, prev, nxt = pts[i], pts[i - 1], pts[(i + 1) % len(pts)]
+    u, v = _unit(prev, p), _unit(nxt, p)
+    theta = math.acos(max(-1.0, min(1.0, u[0] * v[0] + u[1] * v[1])))
+    return 0.45 * min(_dist(p, prev), _dist(p, nxt)) * math.tan(theta / 2)
 
 
 def _unit(q: Point, p: Point) -> Point:

@@ -46,10 +46,11 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
+from suture_fem.geometry.outline import project
 from suture_fem.geometry.regions import MM, Facet
 from suture_fem.outputs.base import Quantity, Setup, State
 from suture_fem.outputs.cone_gaps import SEPARATION_MM, cone_nodes, cone_record, intervals
-from suture_fem.physics.constraints import mark_dofs
+from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
 from suture_fem.support import compat
 
 #: The name of the bare thread's part.
@@ -81,7 +82,7 @@ class Interface(Quantity):
         on_facets[dolfinx.fem.locate_dofs_topological(V, fdim, facets)] = True
         tissue = _node_mask(V, meshmod.region_cells(physics.tagged, regions.TISSUE))
         cone = _node_mask(V, meshmod.region_cells(physics.tagged, regions.Cell.CONE))
-        cone[dolfinx.fem.locate_dofs_topological(V, fdim, meshmod.facets(physics.tagged, Facet.CONE_CONTACT))] = True
+        cone |= mark_facet_nodes(V, fdim, meshmod.facets(physics.tagged, Facet.CONE_CONTACT))
         self.n_owned = V.dofmap.index_map.size_local
         nodes = np.flatnonzero(on_facets & tissue)
         self.nodes = nodes[nodes < self.n_owned]
@@ -225,35 +226,9 @@ def _arc_coordinate(points: np.ndarray, outline: list) -> np.ndarray:
     """Arc length (mm) of each point's nearest position on a cone's outline, from the outline's first point.
 
     The outline (:class:`~suture_fem.geometry.section.Cone`) starts on the thread at the apex, runs round
-    the cone's tissue-facing surface and closes along the thread.
+    the cone's tissue-facing surface and closes along the thread (:func:`~suture_fem.geometry.outline.project`).
     """
-    best = np.full(len(points), np.inf)
-    s_best = np.zeros(len(points))
-    start = 0.0
-    for kind, pts in outline:
-        if kind == "line":
-            p, q = np.array(pts[0]), np.array(pts[1])
-            d = q - p
-            length = float(np.linalg.norm(d))
-            t = np.clip(((points - p) @ d) / max(length**2, 1e-300), 0.0, 1.0)
-            dist = np.linalg.norm(points - (p + t[:, None] * d), axis=1)
-            s = start + t * length
-        else:
-            p, c, q = (np.array(v) for v in pts)
-            radius = float(np.linalg.norm(p - c))
-            a0 = math.atan2(*(p - c)[::-1])
-            sweep = (math.atan2(*(q - c)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi
-            ang = np.arctan2(points[:, 1] - c[1], points[:, 0] - c[0]) - a0
-            ang = (ang + math.pi) % (2 * math.pi) - math.pi
-            t = np.clip(ang / sweep if sweep else 0.0, 0.0, 1.0)
-            on = c + radius * np.stack([np.cos(a0 + t * sweep), np.sin(a0 + t * sweep)], axis=1)
-            dist = np.linalg.norm(points - on, axis=1)
-            length = abs(sweep) * radius
-            s = start + t * length
-        closer = dist < best - 1e-9  # a tie (a corner shared by two segments) keeps the earlier arc length
-        best[closer], s_best[closer] = dist[closer], s[closer]
-        start += length
-    return s_best
+    return project(points, outline).s
 
 
 def _tangents(normal: np.ndarray) -> np.ndarray:

@@ -85,6 +85,21 @@ def mark_dofs(W: Any, cells: Any, sub: Any | None = None) -> Any:
     return carrier.x.array > 0.5
 
 
+def mark_facet_nodes(V: Any, fdim: int, facets: np.ndarray) -> np.ndarray:
+    """Per local node of V: on any of the facets on any rank (an owned node's facets may all lie on another rank).
+
+    The marks are summed onto the owners and sent back to the ghosts.
+    """
+    carrier = dolfinx.fem.Function(V)
+    carrier.x.array[:] = 0.0
+    blocks = np.asarray(dolfinx.fem.locate_dofs_topological(V, fdim, facets))
+    bs = V.dofmap.index_map_bs
+    carrier.x.array[(bs * blocks[:, None] + np.arange(bs)[None, :]).ravel()] = 1.0
+    compat.scatter_reverse_add(carrier.x)
+    carrier.x.scatter_forward()
+    return carrier.x.array.reshape(-1, bs)[:, 0] > 0.5
+
+
 def supports(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[list[Any], np.ndarray]:
     """The supports: u = 0 on the outer surface and u_r = 0 on the axis; and the outer surface's u_z dofs.
 

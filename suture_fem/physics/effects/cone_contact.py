@@ -7,7 +7,13 @@ cone's mean axial displacement t_c (the mean u_z of its interface nodes; exactly
 suture). The contact search follows each tissue node a wherever it slides: at every residual and
 Jacobian evaluation its position relative to the cone, y = X_a + u_a - t_c e_z, is projected onto the
 outline (:func:`~suture_fem.geometry.outline.project`: the nearest point, arc length s, signed distance
-phi, positive outside, outward normal n and tangent T). With w the node's lumped 2 pi r-weighted area
+phi, positive outside, outward normal n and tangent T). The search's outline has each sharp corner off
+the thread rounded by a tenth of the suture's element size, less on a short edge
+(:meth:`~suture_fem.geometry.section.Cone.rounded`; the fillets kept): at a sharp corner the normal
+jumps and a node pressed into it has two equilibria (the same scene gave 4.908 and 4.945 mm on one and
+two ranks before); the rounding vanishes with the mesh. Distances are measured from each node's reference
+distance (zero but at a rounded corner, where the node starts a few um off the arc): at rest every node
+touches and nothing is pressed. With w the node's lumped 2 pi r-weighted area
 (m^2) and kappa the frictionless thread's penalty stiffness
 (:func:`~suture_fem.physics.effects.contact.penalty_stiffness`), the potential is
 
@@ -17,11 +23,11 @@ phi, positive outside, outward normal n and tangent T). With w the node's lumped
 
 p = kappa <-phi> the contact pressure and g the total slip along the outline (a deformation theory, as
 for the thread). Coulomb's bound b is frozen during a Newton solve and moved to mu p between solves, as
-for the thread (:class:`~suture_fem.physics.effects.friction.SlipBound`). The Jacobian is the penalty's
-kappa w n n^T where the nearest point is on a straight segment and kappa w I where it is a corner (both
-exact; a fillet arc's curvature term is left out), plus the friction's w t'(g) T T^T (its tangent's
-turning left out). A node's terms couple its two dofs with the axial dofs of its
-cone's interface nodes (through t_c), so the matrix pattern is set once, whatever the node slides past.
+for the thread (:class:`~suture_fem.physics.effects.friction.SlipBound`). The Jacobian is the
+penalty's exact Hessian where closed, kappa w (n n^T + phi d2 phi), the distance's curvature d2 phi
+from the search (0 beside a straight segment), plus the friction's w t'(g) T T^T (the turning of T
+left out). A node's terms couple its two dofs with the axial dofs of its cone's interface nodes
+(through t_c), so the matrix pattern is set once, whatever the node slides past.
 
 Left out: the cone's own deformation in the search (its axial strain at 4 N is below 0.3 %, a few um
 over the cone; its radial strain from the contact pressure is below 1e-4). The terms are assembled by
@@ -45,9 +51,12 @@ from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.outline import project
 from suture_fem.geometry.regions import Facet
-from suture_fem.physics.constraints import mark_dofs
+from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
 from suture_fem.physics.effects.friction import SlipBound, global_dofs
 from suture_fem.support import compat
+
+#: The search rounds each sharp corner of a cone (off the thread) by this fraction of the suture's element size.
+CORNER_ROUNDING = 0.1
 
 
 class ConeContact(SlipBound):
@@ -56,9 +65,9 @@ class ConeContact(SlipBound):
     Attributes:
         pairs: the tissue's cone-contact nodes owned on this rank; nodes: V's local node a of each;
         dofs: (pairs, 2) global dofs (u_r(a), u_z(a)); X: (pairs, 2) reference positions (mm); cone: (pairs,)
-        the cone of each; s0: (pairs,) the reference arc length (mm); weight: (pairs,) m^2; cone_dofs: per
-        cone, the global axial dofs of its interface nodes (every rank's); outlines: per cone, its outline;
-        kappa (Pa/m); model; mu (0: no friction); slip: s (m); bound: (pairs,) the frozen slip limit (Pa).
+        the cone of each; s0, phi0: (pairs,) the reference arc length and distance (mm); weight: (pairs,) m^2;
+        cone_dofs: per cone, the global axial dofs of its interface nodes (every rank's); outlines: per cone, its
+        outline; kappa (Pa/m); model; mu (0: no friction); slip: s (m); bound: (pairs,) the frozen slip limit (Pa).
     """
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
@@ -71,11 +80,13 @@ class ConeContact(SlipBound):
         self.nodes, self.dofs, self.X = pairs["nodes"], pairs["dofs"], pairs["X"]
         self.cone, self.weight, self.outlines = pairs["cone"], pairs["weight"], pairs["outlines"]
         self.cone_dofs: list[np.ndarray] = pairs["cone_dofs"]
+        self.corner_mm = float(pairs["corner_mm"])
         self.pairs = len(self.weight)
-        self.s0 = np.zeros(self.pairs)
+        self.s0, self.phi0 = np.zeros(self.pairs), np.zeros(self.pairs)
         for c, outline in enumerate(self.outlines):
             sel = self.cone == c
-            self.s0[sel] = project(self.X[sel], outline).s
+            start = project(self.X[sel], outline)
+            self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
         self.bound = np.zeros(self.pairs)
         self._state = state
         self.start()
@@ -110,12 +121,14 @@ class ConeContact(SlipBound):
             at += len(dofs)
         y = self.X + (u - np.stack([np.zeros(self.pairs), np.asarray(t_c)[self.cone]], axis=1)) / regions.MM
         out = {"phi": np.zeros(self.pairs), "g": np.zeros(self.pairs), "n": np.zeros((self.pairs, 2)),
-               "T": np.zeros((self.pairs, 2)), "corner": np.zeros(self.pairs, dtype=bool), "t_c": np.asarray(t_c)}
+               "T": np.zeros((self.pairs, 2)), "curvature": np.zeros(self.pairs), "t_c": np.asarray(t_c)}
         for c, outline in enumerate(self.outlines):
             sel = self.cone == c
             proj = project(y[sel], outline)
-            out["phi"][sel], out["g"][sel] = proj.distance * regions.MM, (proj.s - self.s0[sel]) * regions.MM
-            out["n"][sel], out["T"][sel], out["corner"][sel] = proj.normal, proj.tangent, proj.corner
+            out["phi"][sel] = (proj.distance - self.phi0[sel]) * regions.MM
+            out["g"][sel] = (proj.s - self.s0[sel]) * regions.MM
+            out["n"][sel], out["T"][sel] = proj.normal, proj.tangent
+            out["curvature"][sel] = proj.curvature / regions.MM  # 1/m
         return out
 
     def _normal_force(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -150,9 +163,10 @@ class ConeContact(SlipBound):
         q, k = self._normal_force(found["phi"])
         n, T = found["n"], found["T"]
         grad = q[:, None] * n
-        # d2(phi^2 / 2) = n n^T + phi d2(phi): on a segment n n^T; off a corner the identity (a point's distance)
-        outer = np.where(found["corner"][:, None, None], np.eye(2)[None, :, :], n[:, :, None] * n[:, None, :])
-        hess = k[:, None, None] * outer
+        # d2(phi^2 / 2) = n n^T + phi d2(phi), d2(phi) = curvature (I - n n^T) (0 beside a straight segment)
+        nn = n[:, :, None] * n[:, None, :]
+        bend = (found["phi"] * found["curvature"])[:, None, None] * (np.eye(2)[None, :, :] - nn)
+        hess = k[:, None, None] * (nn + bend)
         if self.mu > 0.0:
             t, dt = self._law(found["g"])
             grad += (self.weight * t)[:, None] * T
@@ -233,7 +247,8 @@ class ConeContact(SlipBound):
                                "cone_contact_penalty_pa_per_m": self.kappa,
                                "cone_contact_search": "each tissue node's nearest point on its cone's outline, the "
                                                       "outline moved by the cone's mean axial displacement, at "
-                                                      "every residual and Jacobian evaluation"}
+                                                      "every residual and Jacobian evaluation",
+                               "cone_contact_corner_radius_mm": self.corner_mm}
         if self.model == "coulomb":
             out.update({"cone_friction_coefficient": self.mu, "friction_slip_mm": self.slip / regions.MM})
         return out
@@ -256,9 +271,7 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
         raise ValueError("effects.cone_interface needs the mesh built with the cones' surfaces split "
                          "(suture_fem.geometry.mesh.scene_mesh, or create_mesh(..., split_cones=True))")
     suture = mark_dofs(V, meshmod.region_cells(tagged, regions.SUTURE)).reshape(n_local, -1).any(axis=1)
-    on = np.zeros(n_local, dtype=bool)
-    on[dolfinx.fem.locate_dofs_topological(V, fdim, facets)] = True
-    nodes = np.flatnonzero(on & ~suture)
+    nodes = np.flatnonzero(mark_facet_nodes(V, fdim, facets) & ~suture)  # a node's facets may be on another rank
     nodes = nodes[nodes < owned]
     v = ufl.TestFunction(V)
     x = ufl.SpatialCoordinate(mesh)
@@ -266,10 +279,10 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
     area = _assembled(v[1] * 2 * math.pi * x[0] * ds, owned)[:, 1]  # int phi 2 pi r ds: the lumped area
     xy = V.tabulate_dof_coordinates()[:, :2] / regions.MM
     cones = tagged.geometry.cones
+    rho = CORNER_ROUNDING * tagged.sizes.suture
     cone = _cone_of(xy[nodes], cones, tagged.geometry.z_end)
     cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)
-    faces = np.zeros(n_local, dtype=bool)
-    faces[dolfinx.fem.locate_dofs_topological(V, fdim, meshmod.facets(tagged, Facet.INTERFACE))] = True
+    faces = mark_facet_nodes(V, fdim, meshmod.facets(tagged, Facet.INTERFACE))
     surface = np.flatnonzero(cone_cells & faces)
     surface = surface[surface < owned]
     of_surface = _cone_of(xy[surface], cones, tagged.geometry.z_end)
@@ -278,7 +291,8 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
                  for c in range(len(cones))]
     dofs = np.stack([global_dofs(physics, nodes, 0), global_dofs(physics, nodes, 1)], axis=1)
     return {"nodes": nodes, "dofs": dofs, "X": xy[nodes], "cone": cone, "weight": area[nodes],
-            "cone_dofs": cone_dofs, "outlines": [c.outline for c in cones]}
+            "cone_dofs": cone_dofs, "corner_mm": rho,
+            "outlines": [c.rounded(rho, tagged.geometry.r_thread) for c in cones]}
 
 
 def _cone_of(xy_mm: np.ndarray, cones: list, z_end: float) -> np.ndarray:

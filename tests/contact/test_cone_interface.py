@@ -1,0 +1,183 @@
+"""Cones that slide, lift off and grip: ``effects.cone_interface`` = "sliding", "frictionless", "coulomb".
+
+Checked here: the mesh split (the tissue keeps no node of a cone's surface but the junctions with a tied
+thread), the cone terms' gradient and Hessian against finite differences of their potential (the search
+moving the nearest point as the state moves), the load shares summing to the pull for each model, the
+tissue's own force balance where it has lifted off a cone, the order of the lift (tied < Coulomb <
+frictionless, the rigid suture), 2 ranks equal to serial, and the refused combinations.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from tests.conftest import FAST, cli, sets
+
+SCENE = [*FAST, "geometry.cones=1", "output.quantities=[\"usum\",\"interface\"]"]
+
+
+def _cones(model: str, *more: str) -> list[str]:
+    return [*SCENE, f'effects.cone_interface="{model}"', *more]
+
+
+def _run(tmp_path_factory, name: str, overrides: list[str], ranks: int = 1) -> dict:
+    out = tmp_path_factory.mktemp(name)
+    proc = cli(["run", "paper", *sets(overrides), "--no-pictures", "--out", str(out)], ranks=ranks, timeout=900)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads((out / "results.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def sliding(tmp_path_factory):
+    return _run(tmp_path_factory, "sliding", _cones("sliding"))
+
+
+@pytest.fixture(scope="module")
+def frictionless(tmp_path_factory):
+    return _run(tmp_path_factory, "frictionless", _cones("frictionless"))
+
+
+def test_the_split_mesh_keeps_only_the_thread_junctions_of_a_cone():
+    import gmsh
+
+    from suture_fem.geometry.gmsh_model import MeshSizes, build_gmsh_model
+    from suture_fem.geometry.regions import Cell, Facet
+    from suture_fem.geometry.section import Geometry
+    from suture_fem.pipeline import load_scene
+
+    scene = load_scene("paper", [*FAST, "geometry.cones=2"])
+    g = Geometry.from_section(scene.geometry)
+    found = {}
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        for thread in (False, True):
+            build_gmsh_model(g, MeshSizes.from_section(scene.mesh), split_thread=thread, split_cones=True)
+
+            def nodes_of(tags):
+                out = set()
+                for tag in tags:
+                    for e in gmsh.model.getEntitiesForPhysicalGroup(2, tag):
+                        out |= set(np.concatenate(gmsh.model.mesh.getElements(2, e)[2]).tolist())
+                return out
+
+            tissue = nodes_of([Cell.HYPODERMIS, Cell.DERMIS, Cell.EPIDERMIS])
+            groups = {t for _, t in gmsh.model.getPhysicalGroups(1)}
+            found[thread] = (tissue & nodes_of([Cell.CONE]), tissue & nodes_of([Cell.THREAD]), groups)
+            gmsh.model.remove()
+    finally:
+        gmsh.finalize()
+    cone_tied_thread, thread_tied, groups = found[False]
+    assert len(cone_tied_thread) == 2 * 2 and cone_tied_thread <= thread_tied  # two junctions per hollow cone
+    assert int(Facet.CONE_CONTACT) in groups and int(Facet.TRACK) not in groups
+    cone_free, thread_free, groups = found[True]
+    assert not cone_free and not thread_free  # everything split: the tissue shares no node with the suture
+    assert {int(Facet.CONE_CONTACT), int(Facet.TRACK)} <= groups
+
+
+def test_the_cone_terms_are_the_derivatives_of_their_potential():
+    """Finite differences of the potential and the gradient at a state off the reference (the search moving)."""
+    from suture_fem import Model, Scene
+    from suture_fem.support import compat
+
+    scene = Scene.builtin("paper").with_values({"geometry.cones": 1, "mesh.degree": 1, "mesh.refinement": 0,
+                                                "effects.cone_interface": "coulomb"})
+    physics = Model(scene).physics
+    contact = physics.cone_contact
+    rng = np.random.default_rng(1)
+    physics.state.x.array[:] = 2e-6 * rng.standard_normal(physics.state.x.array.shape)  # about 2 um: pairs close
+    physics.state.x.scatter_forward()
+    contact.bound[:] = 1e4
+    contact.slip = 1e-6
+    vec = compat.function_vector(physics.state)
+    assert np.count_nonzero(contact.search(vec)["phi"] < 0) > 5  # some pairs closed, so the terms act
+    x0, step = vec.copy(), vec.duplicate()
+    step.setArray(1e-9 * rng.standard_normal(step.getLocalSize()))
+    grad = vec.duplicate()
+    grad.set(0.0)
+    contact.add_residual(vec, grad)
+
+    def at(h):
+        vec.waxpy(h, step, x0)
+        energy, b = contact.potential(vec), vec.duplicate()
+        b.set(0.0)
+        contact.add_residual(vec, b)
+        return energy, b
+
+    (ep, bp), (em, bm) = at(1.0), at(-1.0)
+    x0.copy(vec)
+    assert (ep - em) / 2 == pytest.approx(grad.dot(step), rel=1e-5)
+    import dolfinx.fem.petsc
+
+    A = dolfinx.fem.petsc.create_matrix(physics.form("jacobian"))
+    A.zeroEntries()
+    A.assemble()
+    contact.extend_pattern(A)
+    A.zeroEntries()
+    contact.add_jacobian(vec, A)
+    applied = vec.duplicate()
+    A.mult(step, applied)
+    fd = bp - bm
+    fd.scale(0.5)
+    # exact on straight faces and off corners; a pair whose nearest point turns a corner within the step differs
+    assert (fd - applied).norm() <= 1e-2 * applied.norm()
+
+
+@pytest.mark.parametrize("model", ["sliding", "frictionless"])
+def test_the_load_shares_sum_to_the_pull(model, sliding, frictionless):
+    rec = {"sliding": sliding, "frictionless": frictionless}[model]["at_forces"][-1]
+    assert rec["interface"]["cones"] == model
+    assert sum(rec["load_share_n"].values()) == pytest.approx(rec["force_n"], rel=1e-9)
+    assert rec["interface"]["cone_contact"]["model"] == model
+
+
+def test_a_sliding_cone_never_opens_and_a_frictionless_one_lifts_off_and_lifts_more(sliding, frictionless):
+    closed = sliding["at_forces"][-1]["interface"]["cone_contact"]
+    assert closed["open_nodes"] == 0 and closed["slip_nodes"] > 0
+    rec = frictionless["at_forces"][-1]
+    contact = rec["interface"]["cone_contact"]
+    assert contact["open_nodes"] > 0 and contact["slip_nodes"] > 0
+    assert contact["cones"]["cone_1"]["separated_s_mm"]  # the tissue has lifted off somewhere
+    # where it has lifted off, the tissue's own residual (its balance) carries no force from the cone
+    prof = rec["interface"]["profiles"]["cone_1"]
+    gap = np.array(prof["gap_mm"])
+    pressure, shear = np.abs(prof["pressure_pa"]), np.abs(prof["shear_pa"])
+    far = gap > 1e-3  # open by more than 1 um, away from the penalty's closed range
+    assert far.sum() > 5
+    assert np.max(np.maximum(pressure, shear)[far]) <= 1e-9 * np.max(pressure)
+    assert rec["usum_mm"] > sliding["at_forces"][-1]["usum_mm"]
+
+
+def test_the_lift_grows_from_tied_through_coulomb_to_frictionless_with_the_rigid_suture(tmp_path_factory):
+    rigid = 'effects.suture="rigid"'
+    usum, cone = {}, {}
+    for model, more in [("tied", []), ("coulomb", ["effects.friction_coefficient=0.1"]), ("frictionless", [])]:
+        rec = _run(tmp_path_factory, f"rigid_{model}", _cones(model, rigid, *more))["at_forces"][-1]
+        usum[model], cone[model] = rec["usum_mm"], rec["load_share_n"]["cone_1"]
+    assert usum["tied"] < usum["coulomb"] < usum["frictionless"]
+    assert cone["tied"] > cone["coulomb"] > cone["frictionless"] > 0.0  # friction lets the cone carry more
+
+
+def test_two_ranks_give_the_serial_frictionless_cone(tmp_path_factory, frictionless):
+    par = _run(tmp_path_factory, "frictionless2", _cones("frictionless"), ranks=2)
+    a, b = frictionless["at_forces"][-1], par["at_forces"][-1]
+    assert par["mpi_ranks"] == 2
+    assert b["usum_mm"] == pytest.approx(a["usum_mm"], rel=1e-8)
+    for name in a["load_share_n"]:
+        assert b["load_share_n"][name] == pytest.approx(a["load_share_n"][name], rel=1e-7, abs=1e-10)
+    ca, cb = a["interface"]["cone_contact"], b["interface"]["cone_contact"]
+    assert (cb["open_nodes"], cb["slip_nodes"]) == (ca["open_nodes"], ca["slip_nodes"])
+    assert cb["cones"]["cone_1"]["slip_max_mm"] == pytest.approx(ca["cones"]["cone_1"]["slip_max_mm"], rel=1e-6)
+
+
+@pytest.mark.parametrize("more, named", [(["geometry.cones=0"], "geometry.cones"),
+                                         (["effects.inertia=true"], "effects.inertia")])
+def test_a_cone_interface_it_cannot_honour_is_refused_in_one_line(tmp_path, more, named):
+    proc = cli(["run", "paper", *sets([*_cones("frictionless"), *more]), "--out", str(tmp_path / "out")])
+    assert proc.returncode == 2
+    lines = [line for line in proc.stderr.strip().splitlines() if "error" in line]
+    assert len(lines) == 1 and "effects.cone_interface" in lines[0] and named in lines[0], proc.stderr
+    assert not (tmp_path / "out").exists()

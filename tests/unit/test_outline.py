@@ -1,0 +1,46 @@
+"""The cone contact's search: the nearest point of an outline against closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from suture_fem.geometry.outline import inside, project
+
+#: The unit square, counter-clockwise: arc length 0-1 along z = 0, 1-2 along r = 1, ...
+SQUARE = [("line", ((0.0, 0.0), (1.0, 0.0))), ("line", ((1.0, 0.0), (1.0, 1.0))),
+          ("line", ((1.0, 1.0), (0.0, 1.0))), ("line", ((0.0, 1.0), (0.0, 0.0)))]
+
+
+def test_a_point_beside_a_face_projects_onto_it_with_its_outward_normal():
+    p = project(np.array([[1.3, 0.25], [0.9, 0.25]]), SQUARE)
+    assert p.distance == pytest.approx([0.3, -0.1])  # outside positive, inside negative
+    assert p.s == pytest.approx([1.25, 1.25])
+    assert p.normal == pytest.approx(np.array([[1.0, 0.0], [1.0, 0.0]]))  # the signed distance's gradient
+    assert p.tangent == pytest.approx(np.array([[0.0, 1.0], [0.0, 1.0]]))
+    assert not p.corner.any()
+
+
+def test_a_point_off_a_corner_is_at_the_corners_distance_and_the_same_on_a_clockwise_outline():
+    clockwise = [(kind, (b, a)) for kind, (a, b) in reversed(SQUARE)]
+    for outline in (SQUARE, clockwise):
+        p = project(np.array([[1.3, 1.4]]), outline)
+        assert p.distance[0] == pytest.approx(0.5)
+        assert p.normal[0] == pytest.approx([0.6, 0.8])
+        assert p.corner[0]
+
+
+def test_a_point_on_the_outline_has_the_faces_normal_and_an_arc_gives_its_radius():
+    p = project(np.array([[0.5, 0.0]]), SQUARE)
+    assert p.distance[0] == pytest.approx(0.0, abs=1e-15) and p.normal[0] == pytest.approx([0.0, -1.0])
+    # a quarter disc: the arc from (1, 0) round to (0, 1) about the origin, closed along the axes
+    disc = [("line", ((0.0, 0.0), (1.0, 0.0))), ("arc", ((1.0, 0.0), (0.0, 0.0), (0.0, 1.0))),
+            ("line", ((0.0, 1.0), (0.0, 0.0)))]
+    q = project(np.array([[1.2 * math.cos(0.3), 1.2 * math.sin(0.3)]]), disc)
+    assert q.distance[0] == pytest.approx(0.2)
+    assert q.s[0] == pytest.approx(1.0 + 0.3)
+    assert q.normal[0] == pytest.approx([math.cos(0.3), math.sin(0.3)])
+    assert q.tangent[0] == pytest.approx([-math.sin(0.3), math.cos(0.3)])
+    assert list(inside(np.array([[0.5, 0.5], [1.5, 0.5], [0.2, 0.9]]), disc)) == [True, False, True]

@@ -171,7 +171,7 @@ def test_the_distance_to_a_cone_surface_follows_its_lines_and_its_arcs():
 
 def test_the_largest_value_per_point_equals_numpy_s_maximum_at():
     # CellField.at takes the larger value where a point lies in two cells (an edge), sorted or not
-    from suture_fem.outputs.disc import _max_into
+    from suture_fem.outputs.disc_points import _max_into
 
     rng = np.random.default_rng(0)
     for trial in range(50):

@@ -27,8 +27,6 @@ from suture_fem.scene.rules import (  # noqa: F401  (re-exported: the schema's n
     section,
 )
 
-_MODULUS = _pos(1e13)
-_VOLUMETRIC = _pos(1e15, lo_open=False)  # 1/d may be 0 (incompressible limit handled by "mixed")
 MM, N, PA, S = "mm", "N", "Pa", "s"
 
 
@@ -151,7 +149,7 @@ class EffectsSection(_Section):
 
 from suture_fem.scene.strength import StrengthSection  # noqa: E402  (it builds on the rules above)
 
-SECTIONS: dict[str, type] = {  # the sections with fixed keys, by name (``materials``: per region, MODEL_PARAMETERS)
+SECTIONS: dict[str, type] = {  # the sections with fixed keys, by name (``materials``: per region, scene/laws.py)
     "geometry": GeometrySection,
     "mesh": MeshSection,
     "loading": LoadingSection,
@@ -214,15 +212,4 @@ PETSC_OPTIONS: dict[str, Rule] = {
     "mat_mumps_cntl_7": Rule("float", lo=0.0, hi=1.0),  # block low-rank dropping
 }
 
-TISSUE_MODELS = ("yeoh", "gent")
-
-#: Parameters of each material model (a Yeoh model takes c10..c60 and inv_d1..inv_d6), all in Pa
-#: except Gent's dimensionless jm and SVK's poisson.
-MODEL_PARAMETERS: dict[str, dict[str, Rule]] = {
-    "yeoh": {
-        **{f"c{i}0": Rule("float", lo=-1e12, hi=1e12) for i in range(1, 7)},
-        **{f"inv_d{k}": _VOLUMETRIC for k in range(1, 7)},
-    },
-    "gent": {"mu": _MODULUS, "jm": _pos(1e6), "inv_d": _VOLUMETRIC},
-    "svk": {"young": _MODULUS, "poisson": Rule("float", lo=-1.0, hi=0.5, lo_open=True, hi_open=True)},
-}
+#: The material laws a ``[materials.<region>]`` table may name, and their parameters: ``scene/laws.py`` (``LAWS``).

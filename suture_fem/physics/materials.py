@@ -31,6 +31,7 @@ import dolfinx.fem
 import ufl
 from petsc4py import PETSc
 
+from suture_fem.geometry.regions import WHOLE_TISSUE
 from suture_fem.scene import laws
 from suture_fem.scene.laws import LAWS, LawDeclaration
 from suture_fem.scene.model import MaterialSpec
@@ -328,7 +329,7 @@ def register(cls: type[MaterialLaw]) -> type[MaterialLaw]:
     """
     missing = [name for name in ("declaration", "of", "constants", "energy", "limits", "usage", "shear_modulus",
                                  "bulk_modulus") if not hasattr(cls, name)]
-    if cls.declaration.regions == "tissue":
+    if cls.declaration.regions == WHOLE_TISSUE:
         missing += [name for name in ("isochoric", "volumetric", "bulk_modulus_form") if not hasattr(cls, name)]
     if missing:
         raise TypeError(f"material law {cls.__name__} lacks {', '.join(missing)}")

@@ -17,6 +17,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from suture_fem.geometry.regions import SUTURE_REGION, WHOLE_TISSUE
 from suture_fem.scene.rules import Rule, _pos
 from suture_fem.support.errors import SceneError
 
@@ -31,7 +32,7 @@ class LawDeclaration:
     Attributes:
         name: the ``model`` value of a ``[materials.<region>]`` table.
         parameters: each parameter's rule (type and range; Pa unless the rule says otherwise).
-        regions: where the law may be used: ``"tissue"`` (the three tissue layers) or ``"suture"``.
+        regions: where the law may be used: :data:`WHOLE_TISSUE` (the tissue layers) or :data:`SUTURE_REGION`.
         required: the parameters a table must give (the others default to 0).
         unscaled: the parameters ``materials.tissue_scale`` does not multiply (dimensionless ones).
         check: a further check of the table (its parameters by name), raising SceneError; None: none.
@@ -39,7 +40,7 @@ class LawDeclaration:
 
     name: str
     parameters: Mapping[str, Rule]
-    regions: str = "tissue"
+    regions: str = WHOLE_TISSUE
     required: tuple[str, ...] = ()
     unscaled: tuple[str, ...] = ()
     check: Callable[[str, Mapping[str, Any]], None] | None = field(default=None, compare=False)
@@ -79,7 +80,7 @@ def withdraw(name: str) -> None:
 
 def models_for(region: str) -> tuple[str, ...]:
     """The laws a region may use, in declaration order (``suture``: the suture's; any other: the tissue's)."""
-    kind = "suture" if region == "suture" else "tissue"
+    kind = SUTURE_REGION if region == SUTURE_REGION else WHOLE_TISSUE
     return tuple(name for name, law in LAWS.items() if law.regions == kind)
 
 
@@ -94,5 +95,5 @@ declare(LawDeclaration(  # W = -(mu Jm / 2) ln(1 - (I1bar - 3) / Jm) + (1/d) ((J
 ))
 declare(LawDeclaration(  # Saint Venant-Kirchhoff: the suture (polypropylene)
     "svk", {"young": MODULUS, "poisson": Rule("float", lo=-1.0, hi=0.5, lo_open=True, hi_open=True)},
-    regions="suture", required=("young", "poisson"),
+    regions=SUTURE_REGION, required=("young", "poisson"),
 ))

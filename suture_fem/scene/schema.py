@@ -98,6 +98,15 @@ class SolverSection(_Section):
     gent_limit_fraction: float = key(Rule("float", lo=0.0, hi=1.0, lo_open=True))
 
 
+#: The optional outputs a scene may ask for in ``output.quantities``, in the order they are computed:
+#: declared here once (the scene checks them before anything is imported). Each is the ``option`` of
+#: one Quantity class in ``outputs/`` (checked when the class is defined, and by a test), and
+#: results.json's ``effects.outputs`` lists those left out.
+OUTPUT_QUANTITIES: tuple[str, ...] = ("usum", "seqv", "eptoeqv", "interface")
+#: Those computed from the stress and strain at the quadrature points (one compiled expression per material).
+POINT_QUANTITIES: tuple[str, ...] = ("seqv", "eptoeqv")
+
+
 @section("output")
 class OutputSection(_Section):
     """``[output]``: which quantities, fields and measures are computed."""
@@ -106,7 +115,7 @@ class OutputSection(_Section):
     rim_exclusion_mm: float = key(_pos(100.0, lo_open=False), MM)
     critical_distance_mm: float = key(_pos(10.0, lo_open=False), MM)
     critical_distance_layers: bool = key(Rule("bool"))
-    quantities: tuple[str, ...] = key(Rule("strs", choices=("usum", "seqv", "eptoeqv", "interface")))
+    quantities: tuple[str, ...] = key(Rule("strs", choices=OUTPUT_QUANTITIES))
 
 
 #: The thread interfaces whose tissue side has its own nodes along the bare thread (the split track).

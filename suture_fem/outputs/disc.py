@@ -268,21 +268,17 @@ def spread(candidates: np.ndarray, separation: float, count: int) -> np.ndarray:
     """The first ``count`` of candidates (k, 2), in order, each at least ``separation`` from those taken before it.
 
     A candidate closer than ``separation`` to one taken is struck out when that one is taken, so each
-    is compared once with each taken one: the choice of a loop over the candidates, at numpy's speed.
+    is compared once with each taken one, and only the candidates still open are compared: the choice
+    of a loop over the candidates, at numpy's speed.
     """
     candidates = np.asarray(candidates, dtype=float).reshape(-1, 2)
-    open_ = np.ones(len(candidates), dtype=bool)
+    r, z = candidates[:, 0].copy(), candidates[:, 1].copy()
+    open_ = np.arange(len(candidates))
     taken: list[int] = []
-    i = 0
-    while len(taken) < count:
-        left = np.flatnonzero(open_[i:])
-        if not len(left):
-            break
-        i += int(left[0])
+    while len(taken) < count and len(open_):
+        i, rest = int(open_[0]), open_[1:]
         taken.append(i)
-        near = np.hypot(candidates[i + 1:, 0] - candidates[i, 0], candidates[i + 1:, 1] - candidates[i, 1])
-        open_[i + 1:] &= near >= separation
-        i += 1
+        open_ = rest[np.hypot(r[rest] - r[i], z[rest] - z[i]) >= separation]
     return candidates[taken].reshape(-1, 2)
 
 

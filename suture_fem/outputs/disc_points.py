@@ -78,10 +78,12 @@ class DiscPoints:
     the least-squares system of the fit (``cells``, set by :class:`~suture_fem.outputs.disc.CellField`).
     Each centre keeps its centre's cells and its rule points' indices and cells (under 1 kB); at most
     ``limit`` centres are kept (beyond it, new ones are located every time). Prepared batches are kept
-    up to ``batch_bytes`` (the least recently used one goes first).
+    up to ``batch_bytes`` (the least recently used one goes first): on the paper scene at P1 r0 a later
+    answer asks for about 25 new batches per region (about 20 MB in all), mostly of centres kept already
+    (about 3,500 per region), so 32 MB per region keeps the last answer's batches.
     """
 
-    def __init__(self, locate: Any, limit: int = 50_000, batch_bytes: int = 192 * 2**20):
+    def __init__(self, locate: Any, limit: int = 50_000, batch_bytes: int = 32 * 2**20):
         self.locate, self.limit, self.batch_bytes = locate, limit, batch_bytes
         self.kept: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         #: the fields' cell centres, rows and least-squares system (they too depend on the points alone)

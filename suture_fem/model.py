@@ -215,8 +215,8 @@ class Model:
             physics.gravity_factor.value = 0.0
         if physics.rigid_displacement is not None:
             physics.rigid_displacement.value = 0.0
-        if physics.friction is not None:  # no contact pressure yet: no slip bound
-            physics.friction.bound[:] = 0.0
+        for law in physics.slip_laws():  # no contact pressure yet: no slip bound
+            law.bound[:] = 0.0
         if physics.control is not None:
             physics.control.set(0.0)
 
@@ -254,7 +254,7 @@ class Model:
             return "it is not a Constant of the forms (it changes what is built)"
         if self._built[key] == 0.0 and float(new) != 0.0:
             return "its term was left out of the forms, built at 0"
-        if self.physics.effects.unilateral_thread and (key == "materials.tissue_scale"
+        if self.physics.effects.contact and (key == "materials.tissue_scale"
                                                        or key.startswith("materials.hypodermis.")):
             return "the contact penalty's stiffness is built from it"
         return None

@@ -163,7 +163,7 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
         path = check_msh_path(args.out or f"meshes/{_scene_name(args.scene)}.msh")
         if comm.rank == 0:
             path.parent.mkdir(parents=True, exist_ok=True)
-            record = write_msh(scene.geometry, scene.mesh, path, scene.effects.thread_track)
+            record = write_msh(scene.geometry, scene.mesh, path, scene.effects.thread_track, scene.effects.cone_contact)
             print(f"suture-fem: wrote {path} ({record['triangles']} triangles) and {path.with_suffix('.json')}")
         return 0
     if args.command == "run":

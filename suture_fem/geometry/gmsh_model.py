@@ -51,12 +51,13 @@ FILLET_GRADING = 3.0
 
 
 def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture", geometry_degree: int = 1,
-                     split_thread: bool = False) -> None:
+                     split_thread: bool = False, split_cones: bool = False) -> None:
     """Build and mesh the half-section in the current gmsh model (call on one rank only).
 
     ``geometry_degree`` 2 makes the cells quadratic when the section has fillet arcs (their mid-side
     nodes on the arcs; ``mesh.geometry_degree``); without arcs the mesh stays straight-sided.
-    ``split_thread`` gives the tissue its own nodes along the bare thread (:func:`split_thread_track`).
+    ``split_thread`` gives the tissue its own nodes along the bare thread, ``split_cones`` on the cones'
+    surfaces (:func:`split_interfaces`).
     """
     import gmsh
 
@@ -99,18 +100,21 @@ def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture",
     gmsh.model.mesh.generate(2)
     if geometry_degree == 2 and fillet_arcs():
         gmsh.model.mesh.setOrder(2)  # mid-side nodes on the model's curves: the arcs' nodes lie on the arcs
-    if split_thread:
-        split_thread_track(owner, facets)
+    if split_thread or split_cones:
+        split_interfaces(owner, facets, thread=split_thread, cones=split_cones)
 
 
-def split_thread_track(owner: dict[int, int], facets: dict[int, set[int]]) -> int:
-    """Give the tissue its own nodes along the bare thread: the track a sliding thread slides in.
+def split_interfaces(owner: dict[int, int], facets: dict[int, set[int]], thread: bool = True,
+                     cones: bool = False) -> int:
+    """Give the tissue its own nodes along the bare thread (``thread``) and on the cones' surfaces (``cones``).
 
-    Every mesh node on a thread-tissue interface curve (end points included) is duplicated, except the
-    nodes that also lie on a cone-tissue curve (the cones stay tied to the tissue). The thread keeps
-    the original nodes; the tissue's elements are rewritten to use the duplicates, which lie on a new
-    discrete curve carrying the physical group ``track`` (its line elements are the tissue's side of
-    the interface). Call after meshing (and after ``setOrder``). Returns the number of nodes duplicated.
+    Every mesh node on a split interface curve (end points included) is duplicated, except the nodes that
+    also lie on an interface curve that stays tied (with the cones tied, the junctions where a cone meets
+    the thread). The suture keeps the original nodes; the tissue's elements are rewritten to use the
+    duplicates, which lie on new discrete curves carrying the physical groups ``track`` (the thread's) and
+    ``cone_contact`` (the cones'); their line elements are the tissue's side of the interface. A node on
+    both (where a split cone meets a split thread) has one duplicate. Call after meshing (and after
+    ``setOrder``). Returns the number of nodes duplicated.
     """
     import gmsh
 
@@ -120,16 +124,19 @@ def split_thread_track(owner: dict[int, int], facets: dict[int, set[int]]) -> in
         return {owner[s] for s in gmsh.model.getAdjacencies(1, curve)[0]}
 
     interface = sorted(facets[Facet.INTERFACE])
-    track = [c for c in interface if Cell.THREAD in sides(c) and sides(c) & set(TISSUE)]
-    tied = [c for c in interface if c not in track]
-    if not track:
+    on_thread = [c for c in interface if Cell.THREAD in sides(c) and sides(c) & set(TISSUE)]
+    groups = {Facet.TRACK: on_thread if thread else [],
+              Facet.CONE_CONTACT: [c for c in interface if c not in on_thread] if cones else []}
+    split = groups[Facet.TRACK] + groups[Facet.CONE_CONTACT]
+    tied = [c for c in interface if c not in split]
+    if not split:
         return 0
 
     def curve_nodes(curve: int) -> np.ndarray:
         return np.asarray(mesh.getNodes(1, curve, includeBoundary=True)[0], dtype=np.int64)
 
     keep = set(np.concatenate([curve_nodes(c) for c in tied]).tolist()) if tied else set()
-    old = sorted(set(np.concatenate([curve_nodes(c) for c in track]).tolist()) - keep)
+    old = sorted(set(np.concatenate([curve_nodes(c) for c in split]).tolist()) - keep)
     all_tags, all_xyz, _ = mesh.getNodes()
     xyz = dict(zip(np.asarray(all_tags, dtype=np.int64).tolist(), np.asarray(all_xyz).reshape(-1, 3).tolist()))
     first = int(np.max(all_tags)) + 1
@@ -138,28 +145,42 @@ def split_thread_track(owner: dict[int, int], facets: dict[int, set[int]]) -> in
     def remap(nodes: Any) -> np.ndarray:
         return np.array([twin.get(int(n), int(n)) for n in nodes], dtype=np.int64)
 
-    # the new curve: the duplicates and the tissue's side of the track's line elements
-    new_curve = gmsh.model.addDiscreteEntity(1)
-    mesh.addNodes(1, new_curve, [twin[n] for n in old], [c for n in old for c in xyz[n]])
     next_element = int(max(max((int(t) for t in tags), default=0) for tags in mesh.getElements()[1])) + 1
-    for c in track:
-        for etype, etags, enodes in zip(*mesh.getElements(1, c)):
-            new_tags = list(range(next_element, next_element + len(etags)))
-            next_element += len(etags)
-            mesh.addElements(1, new_curve, [etype], [new_tags], [remap(enodes).tolist()])
-    gmsh.model.addPhysicalGroup(1, [new_curve], int(Facet.TRACK))
-    gmsh.model.setPhysicalName(1, int(Facet.TRACK), "track")
-    # the tissue's surfaces next to the track: same elements, the duplicates instead of the thread's nodes
-    surfaces = sorted({s for c in track for s in gmsh.model.getAdjacencies(1, c)[0] if owner[s] in TISSUE})
-    for s in surfaces:
-        inner_tags, inner_xyz, _ = mesh.getNodes(2, s)
-        etypes, etags, enodes = mesh.getElements(2, s)
-        mesh.clear([(2, s)])
-        mesh.addNodes(2, s, list(inner_tags), list(inner_xyz))
-        for etype, tags, nodes in zip(etypes, etags, enodes):
-            mesh.addElements(2, s, [etype], [list(tags)], [remap(nodes).tolist()])
+    placed = False
+    for tag, curves in groups.items():  # the new curves: the duplicates and the tissue's side of the line elements
+        if not curves:
+            continue
+        new_curve = gmsh.model.addDiscreteEntity(1)
+        if not placed:  # every duplicate once, on the first new curve
+            mesh.addNodes(1, new_curve, [twin[n] for n in old], [c for n in old for c in xyz[n]])
+            placed = True
+        for c in curves:
+            for etype, etags, enodes in zip(*mesh.getElements(1, c)):
+                new_tags = list(range(next_element, next_element + len(etags)))
+                next_element += len(etags)
+                mesh.addElements(1, new_curve, [etype], [new_tags], [remap(enodes).tolist()])
+        gmsh.model.addPhysicalGroup(1, [new_curve], int(tag))
+        gmsh.model.setPhysicalName(1, int(tag), tag.name.lower())
+    _remap_tissue(owner, remap)
     mesh.renumberNodes()
     return len(old)
+
+
+def _remap_tissue(owner: dict[int, int], remap: Any) -> None:
+    """Every tissue surface's elements on the duplicates instead of the suture's nodes (same element tags)."""
+    import gmsh
+
+    mesh = gmsh.model.mesh
+    for s in sorted(t for t, region in owner.items() if region in TISSUE):
+        inner_tags, inner_xyz, _ = mesh.getNodes(2, s)
+        etypes, etags, enodes = mesh.getElements(2, s)
+        remapped = [remap(nodes) for nodes in enodes]
+        if all(np.array_equal(a, np.asarray(b, dtype=np.int64)) for a, b in zip(remapped, enodes)):
+            continue  # touches no duplicated node
+        mesh.clear([(2, s)])
+        mesh.addNodes(2, s, list(inner_tags), list(inner_xyz))
+        for etype, tags, nodes in zip(etypes, etags, remapped):
+            mesh.addElements(2, s, [etype], [list(tags)], [nodes.tolist()])
 
 
 def _add_outline(occ: Any, outline: list) -> int:

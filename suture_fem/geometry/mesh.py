@@ -36,11 +36,12 @@ class TaggedMesh:
 
 
 def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: MeshSection,
-                split_thread: bool = False) -> TaggedMesh:
+                split_thread: bool = False, split_cones: bool = False) -> TaggedMesh:
     """Build the mesh of a scene on rank 0 of ``comm`` and distribute it (coordinates in metres).
 
     ``split_thread``: the tissue gets its own nodes along the bare thread, tagged ``track``
-    (``effects.thread_interface = "sliding"``; :func:`~suture_fem.geometry.gmsh_model.split_thread_track`).
+    (``effects.thread_interface`` not tied); ``split_cones``: on the cones' surfaces, tagged
+    ``cone_contact`` (``effects.cone_interface`` not tied; :func:`~suture_fem.geometry.gmsh_model.split_interfaces`).
     """
     geometry = Geometry.from_section(geometry_section)
     sizes = MeshSizes.from_section(mesh_section)
@@ -48,13 +49,13 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
         with compat.gmsh_session() as gmsh:
             try:
                 on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes, "suture",
-                        mesh_section.geometry_degree, split_thread)
+                        mesh_section.geometry_degree, split_thread, split_cones)
                 mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
             finally:
                 gmsh.model.remove()
     else:
         on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes, "suture",  # rank 0's outcome, on every rank
-                mesh_section.geometry_degree, split_thread)
+                mesh_section.geometry_degree, split_thread, split_cones)
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.geometry.x[:, :2] *= MM
     folded = mesh.comm.allreduce(folded_cells(mesh)) if geometry_degree(mesh) == 2 else 0
@@ -77,8 +78,9 @@ def present_regions(tagged: TaggedMesh) -> dict[str, tuple[int, ...]]:
 
 
 def scene_mesh(comm: Any, scene: Any) -> TaggedMesh:
-    """:func:`create_mesh` of a scene (its geometry, mesh and thread interface)."""
-    return create_mesh(comm, scene.geometry, scene.mesh, split_thread=scene.effects.thread_track)
+    """:func:`create_mesh` of a scene (its geometry, mesh and interface models)."""
+    return create_mesh(comm, scene.geometry, scene.mesh, split_thread=scene.effects.thread_track,
+                       split_cones=scene.effects.cone_contact)
 
 
 def check_msh_path(path: str | Path) -> Path:
@@ -122,7 +124,7 @@ GMSH_TRIANGLE6 = 9
 
 
 def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path: str | Path,
-              split_thread: bool = False) -> dict[str, Any]:
+              split_thread: bool = False, split_cones: bool = False) -> dict[str, Any]:
     """Write a scene's mesh as a gmsh .msh file (mm) with a JSON record of its parameters beside it.
 
     Raises SceneError when ``path`` is a folder or does not end in .msh (before meshing), WriteError
@@ -135,7 +137,8 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
     sizes = MeshSizes.from_section(mesh_section)
     with compat.gmsh_session() as gmsh:
         try:
-            build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree, split_thread=split_thread)
+            build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree, split_thread=split_thread,
+                             split_cones=split_cones)
             _write_checked(gmsh, path)
             nodes = len(gmsh.model.mesh.getNodes()[0])
             types, tags, _ = gmsh.model.mesh.getElements(2)
@@ -149,6 +152,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
         "triangles": int(cells),
         "geometry_degree": 2 if GMSH_TRIANGLE6 in types else 1,
         "thread_track_split": split_thread,
+        **({"cone_surfaces_split": True} if split_cones else {}),
         "cell_tags": CELL_TAGS,
         "facet_tags": FACET_TAGS,
         "geometry": geometry.describe(),

@@ -39,6 +39,9 @@ class Facet(IntEnum):
     #: the tissue's side of a sliding thread's track (``effects.thread_interface = "sliding"``): its own
     #: nodes, coincident with the thread's surface nodes (which keep the tag ``interface``)
     TRACK = 19
+    #: the tissue's side of the cones' surfaces when they are not tied (``effects.cone_interface``): its own
+    #: nodes, coincident with the cones' surface nodes (which keep the tag ``interface``)
+    CONE_CONTACT = 20
 
 
 #: The material regions, tissue layers inside out, then the suture.

@@ -48,11 +48,14 @@ from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.regions import MM, Facet
 from suture_fem.outputs.base import Quantity, Setup, State
+from suture_fem.outputs.cone_gaps import SEPARATION_MM, cone_nodes, cone_record, intervals
 from suture_fem.physics.constraints import mark_dofs
 from suture_fem.support import compat
 
 #: The name of the bare thread's part.
 THREAD = "thread"
+#: The facets of the tissue's interface nodes: a tied interface, a thread's track, the cones' own surfaces.
+SIDES = (Facet.INTERFACE, Facet.TRACK, Facet.CONE_CONTACT)
 
 
 def part_names(cones: int) -> list[str]:
@@ -73,12 +76,12 @@ class Interface(Quantity):
         mesh = physics.mesh
         fdim = mesh.topology.dim - 1
         mesh.topology.create_connectivity(fdim, mesh.topology.dim)
-        facets = np.concatenate([meshmod.facets(physics.tagged, Facet.INTERFACE),
-                                 meshmod.facets(physics.tagged, Facet.TRACK)])
+        facets = np.concatenate([meshmod.facets(physics.tagged, f) for f in SIDES])
         on_facets = np.zeros(_nodes(V), dtype=bool)
         on_facets[dolfinx.fem.locate_dofs_topological(V, fdim, facets)] = True
         tissue = _node_mask(V, meshmod.region_cells(physics.tagged, regions.TISSUE))
         cone = _node_mask(V, meshmod.region_cells(physics.tagged, regions.Cell.CONE))
+        cone[dolfinx.fem.locate_dofs_topological(V, fdim, meshmod.facets(physics.tagged, Facet.CONE_CONTACT))] = True
         self.n_owned = V.dofmap.index_map.size_local
         nodes = np.flatnonzero(on_facets & tissue)
         self.nodes = nodes[nodes < self.n_owned]
@@ -128,11 +131,13 @@ class Interface(Quantity):
             "part": self.part, "track": self.track, "u": u[self.nodes] / MM,
             "thread_xy": self.thread_xy_mm,
             "thread_u": u[self.thread_surface] / MM,
+            **(cone_nodes(physics, self.nodes) if physics.cone_contact is not None else {}),
         }
         gathered = comm.allgather(local)
         merged = {key: np.concatenate([g[key] for g in gathered]) for key in local}
         merged["thread_z_now"], merged["thread_order"] = _thread_map(merged)
         profiles = _profiles(merged, self.geometry, self.names)
+        cones = cone_record(physics, profiles, self.names) if physics.cone_contact is not None else {}
         total = float(np.sum(shares))
         friction = {}
         if physics.friction is not None:  # how many track nodes stick, slip, are open; the law's residual
@@ -144,10 +149,11 @@ class Interface(Quantity):
             "load_share_total_n": total,
             "interface": {
                 "thread": physics.effects.thread_interface,
-                "cones": "tied",
+                "cones": physics.effects.cone_interface,
                 "profiles": profiles,
                 **_track_summary(merged, profiles),
                 **friction,
+                **cones,
             },
         }
 
@@ -168,7 +174,7 @@ class Interface(Quantity):
 
         Assembled once (the reference configuration): the facets of a tied interface are interior
         facets between a tissue and a suture cell (their tissue-side normal picked by a cellwise tissue
-        indicator); a track's facets are the tissue's boundary.
+        indicator); a track's and the cones' contact facets are the tissue's boundary.
         """
         if self._area_normal is None:
             physics = self.physics
@@ -188,10 +194,9 @@ class Interface(Quantity):
             ds = ufl.Measure("ds", domain=mesh, subdomain_data=physics.tagged.facet_tags)
             n_tissue = chi("+") * n("+") + chi("-") * n("-")  # the tissue's outward normal on a tied facet
             one = ufl.as_vector([1.0, 0.0])
-            forms = (w("+") * ufl.dot(one, v("+")) * dS(int(Facet.INTERFACE))
-                     + w * ufl.dot(one, v) * ds(int(Facet.TRACK)),
-                     w("+") * ufl.dot(n_tissue, v("+")) * dS(int(Facet.INTERFACE))
-                     + w * ufl.dot(n, v) * ds(int(Facet.TRACK)))
+            sides = ds(int(Facet.TRACK)) + ds(int(Facet.CONE_CONTACT))  # the tissue's own boundary
+            forms = (w("+") * ufl.dot(one, v("+")) * dS(int(Facet.INTERFACE)) + w * ufl.dot(one, v) * sides,
+                     w("+") * ufl.dot(n_tissue, v("+")) * dS(int(Facet.INTERFACE)) + w * ufl.dot(n, v) * sides)
             out = []
             for form in forms:
                 b = dolfinx.fem.petsc.assemble_vector(compat.form(form))
@@ -289,6 +294,9 @@ def _profiles(m: dict[str, np.ndarray], g: Any, names: list[str]) -> dict[str, d
             peak = int(np.argmax(pressure[sel]))
             prof["peak_pressure_pa"] = float(pressure[sel][peak])
             prof["peak_pressure_at_mm"] = [float(v) for v in m["xy"][sel[peak]]]
+        if name != THREAD and "cone_gap" in m:  # the tissue's own nodes on the cone (tied junctions: 0)
+            prof["gap_mm"] = _rounded(m["cone_gap"][sel])
+            prof["slip_mm"] = _rounded(m["cone_slip"][sel])
         if name == THREAD and np.any(m["track"][sel]):
             prof["slip_mm"] = _rounded(_slip(m, sel))
             prof["gap_mm"] = _rounded(np.where(m["track"][sel], m["u"][sel, 0], 0.0))
@@ -324,11 +332,6 @@ def _thread_map(m: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return tz, order
 
 
-#: A track node counts as separated from the thread when its radial displacement exceeds this (mm): 0.1 um,
-#: far below an element (50-150 um) and above a closed node's penalty penetration's sign noise.
-SEPARATION_MM = 1e-4
-
-
 def _track_summary(m: dict[str, np.ndarray], profiles: dict[str, Any]) -> dict[str, Any]:
     """A thread track's largest slip, the thread's contraction there, and where the tissue has left it (mm)."""
     if not np.any(m["track"]):
@@ -346,21 +349,8 @@ def _track_summary(m: dict[str, np.ndarray], profiles: dict[str, Any]) -> dict[s
         "thread_contraction_max_mm": float(np.nanmax(contraction)) if np.any(np.isfinite(contraction)) else None,
         "opening_max_mm": float(max(np.max(gap), 0.0)),
         "penetration_max_mm": float(max(-np.min(gap), 0.0)),
-        "separated_mm": _intervals(m["xy"][sel, 1][order], gap[order] > SEPARATION_MM),
+        "separated_mm": intervals(m["xy"][sel, 1][order], gap[order] > SEPARATION_MM),
     }
-
-
-def _intervals(z: np.ndarray, open_: np.ndarray) -> list[list[float]]:
-    """The reference z-ranges (mm) of consecutive open track nodes, [first, last] of each run."""
-    out: list[list[float]] = []
-    start = None
-    for k in range(len(z)):
-        if open_[k] and start is None:
-            start = k
-        if start is not None and (k == len(z) - 1 or not open_[k + 1]):
-            out.append([float(z[start]), float(z[k])])
-            start = None
-    return out
 
 
 def _rounded(values: np.ndarray) -> list[float | None]:

@@ -34,7 +34,7 @@ class Snapshot:
     traction: Any
     gravity: Any
     rigid: Any
-    bound: np.ndarray | None
+    bound: tuple[np.ndarray, ...] | None
     history: tuple[np.ndarray, ...] | None
     end: float | None = None
 
@@ -48,7 +48,7 @@ class Snapshot:
             traction=_value(physics.traction),
             gravity=_value(physics.gravity_factor),
             rigid=_value(physics.rigid_displacement),
-            bound=physics.friction.bound.copy() if physics.friction is not None else None,
+            bound=tuple(law.bound.copy() for law in physics.slip_laws()) or None,
             history=tuple(f.x.array.copy() for f in (dyn.w_n, dyn.v_n, dyn.a_n)) if dyn is not None else None,
             end=physics.control.d if physics.control is not None else None,
         )
@@ -61,7 +61,8 @@ class Snapshot:
         _set(physics.gravity_factor, self.gravity)
         _set(physics.rigid_displacement, self.rigid)
         if self.bound is not None:
-            physics.friction.bound = self.bound.copy()
+            for law, bound in zip(physics.slip_laws(), self.bound):
+                law.bound = bound.copy()
         if self.end is not None:  # displacement control: where the pulled end was
             physics.control.set(self.end)
         if self.history is not None:

@@ -56,8 +56,8 @@ class DisplacementControl:
         """The axial force on the end now (N): the residual's internal force summed over its dofs (collective)."""
         b = dolfinx.fem.petsc.assemble_vector(physics.form("residual"))
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        if physics.friction is not None:  # a Coulomb thread's terms act on the rigid suture's dofs too
-            physics.friction.add_residual(compat.function_vector(physics.state), b)
+        for terms in physics.nodal_terms():  # friction's and the cones' contact terms act on the suture's dofs too
+            terms.add_residual(compat.function_vector(physics.state), b)
         local = float(np.sum(b.array[self.dofs[: self.owned]]))
         b.destroy()
         return float(physics.comm.allreduce(local, op=MPI.SUM))

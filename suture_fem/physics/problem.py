@@ -55,6 +55,7 @@ from suture_fem.physics.effects import (
     gravity_term,
     strain_energy,
 )
+from suture_fem.physics.effects.cone_contact import ConeContact
 from suture_fem.physics.effects.contact import contact_term, penalty_stiffness
 from suture_fem.physics.effects.friction import ThreadFriction
 from suture_fem.physics.forms import FormContext, Terms, measures, pull_term, restricted
@@ -79,6 +80,7 @@ class Physics:
         tissue_residual: the residual over the tissue's cells (:mod:`suture_fem.outputs.interface`).
         contact_energy: the contact penalty's energy (UFL; None without it), for the line search's objective.
         friction: a Coulomb thread's nodal terms (:class:`ThreadFriction`; None without), added by the solver.
+        cone_contact: the cones' contact terms (:class:`ConeContact`; None with tied cones), added by the solver.
         control: the pulled end's :class:`DisplacementControl` (``loading.control = "displacement"``; else None).
         bcs: Dirichlet conditions, in W (zero, except u_z = d on a rigid suture).
         energy: strain energy (J); end_displacement: 2 pi r-weighted integral of u_z over the pulled face.
@@ -120,12 +122,21 @@ class Physics:
     u_in_state: np.ndarray | None = None
     rigid_displacement: Any = None
     friction: ThreadFriction | None = None
+    cone_contact: ConeContact | None = None
     control: DisplacementControl | None = None
     notes: dict[str, dict[str, Any]] = field(default_factory=dict)
     parameters: dict[str, Any] = field(default_factory=dict)
     _compiled: dict[str, Any] = field(default_factory=dict, repr=False)
     _derivatives: dict[str, Any] = field(default_factory=dict, repr=False)
     _kept: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    def nodal_terms(self) -> list[Any]:
+        """The hand-assembled terms the solver adds (the thread's friction, the cones' contact), those present."""
+        return [t for t in (self.friction, self.cone_contact) if t is not None]
+
+    def slip_laws(self) -> list[Any]:
+        """The nodal terms with a Coulomb slip bound (:class:`~suture_fem.physics.effects.friction.SlipBound`)."""
+        return [t for t in self.nodal_terms() if t.mu > 0.0 or isinstance(t, ThreadFriction)]
 
     def form(self, name: str) -> Any:
         """The compiled dolfinx form of attribute `name` (residual, jacobian, energy, ...), compiled once."""
@@ -302,6 +313,8 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     )
     if effects.frictional_thread:
         physics.friction = ThreadFriction.on(physics, scene.effects, kappa)
+    if effects.cone_contact:
+        physics.cone_contact = ConeContact.on(physics, scene.effects, penalty_stiffness(scene, tagged.sizes.suture))
     return physics
 
 

@@ -142,6 +142,7 @@ class EffectsSection(_Section):
     gravity_m_s2: float = key(_pos(1e3, lo_open=False), "m/s^2")
     gravity_direction: str = key(Rule("str", choices=("-z", "+z")))
     thread_interface: str = key(Rule("str", choices=("tied", *TRACK_INTERFACES)))
+    cone_interface: str = key(Rule("str", choices=("tied", *TRACK_INTERFACES)))
     contact_penalty: float = key(_pos(1e8))
     friction_coefficient: float = key(Rule("float", lo=0.0, hi=2.0))
     friction_slip_mm: float = key(_pos(1.0), MM)
@@ -150,6 +151,11 @@ class EffectsSection(_Section):
     def thread_track(self) -> bool:
         """The tissue has its own nodes along the bare thread (a sliding or a frictionless thread)."""
         return self.thread_interface in TRACK_INTERFACES
+
+    @property
+    def cone_contact(self) -> bool:
+        """The tissue has its own nodes on the cones' surfaces (sliding, frictionless or Coulomb cones)."""
+        return self.cone_interface in TRACK_INTERFACES
 
     def density(self, region: str) -> float:
         """Mass density (kg/m^3) of a material region."""

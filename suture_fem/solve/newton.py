@@ -100,9 +100,11 @@ class NewtonSolver(Linearised):
         self.reduction = Reduction(problem, offset)
         self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
         self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
-        self.friction = getattr(problem, "friction", None)  # a Coulomb thread's nodal terms
-        if self.friction is not None:
-            self.friction.extend_pattern(self.A_full)
+        nodal = getattr(problem, "nodal_terms", None)  # a Coulomb thread's, the cones' contact: hand-assembled
+        self.nodal = nodal() if nodal is not None else [t for t in [getattr(problem, "friction", None)] if t]
+        self.laws = problem.slip_laws() if nodal is not None else self.nodal
+        for terms in self.nodal:
+            terms.extend_pattern(self.A_full)
         self._assemble_full_jacobian()
         self.A = self.A_full.ptap(self.reduction.T)
         self.b = self.reduction.create_vector()
@@ -207,13 +209,13 @@ class NewtonSolver(Linearised):
         self.timings.assembly += time.perf_counter() - t0
 
     def _assemble_full_residual(self) -> None:
-        """R at the current state into ``b_full`` (owned entries), friction's nodal terms included."""
+        """R at the current state into ``b_full`` (owned entries), the nodal terms (friction, contact) included."""
         with self.b_full.localForm() as b_local:
             b_local.set(0.0)
         dolfinx.fem.petsc.assemble_vector(self.b_full, self.F_form)
         self.b_full.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        if self.friction is not None:
-            self.friction.add_residual(compat.function_vector(self.physics.state), self.b_full)
+        for terms in self.nodal:
+            terms.add_residual(compat.function_vector(self.physics.state), self.b_full)
 
     def _objective(self, snes: Any, x: Any) -> float:
         if not self._trial_admissible(x):
@@ -221,11 +223,11 @@ class NewtonSolver(Linearised):
         return self._potential()
 
     def _potential(self) -> float:
-        """The objective at the current state, friction's potential included (collective; timed as assembly)."""
+        """The objective at the current state, the nodal terms' potential included (collective; timed as assembly)."""
         t0 = time.perf_counter()
         value = float(self.physics.comm.allreduce(dolfinx.fem.assemble_scalar(self.objective_form), op=MPI.SUM))
-        if self.friction is not None:
-            value += self.friction.potential(compat.function_vector(self.physics.state))
+        for terms in self.nodal:
+            value += terms.potential(compat.function_vector(self.physics.state))
         self.timings.assembly += time.perf_counter() - t0
         return value
 
@@ -233,8 +235,8 @@ class NewtonSolver(Linearised):
         self.A_full.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
         self.A_full.assemble()
-        if self.friction is not None:
-            self.friction.add_jacobian(compat.function_vector(self.physics.state), self.A_full)
+        for terms in self.nodal:
+            terms.add_jacobian(compat.function_vector(self.physics.state), self.A_full)
 
     def _jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         self.jacobian_current = True  # the factorisation SNES makes next is A at this iterate
@@ -270,9 +272,9 @@ class NewtonSolver(Linearised):
         :data:`PETSC_ERROR`. With Coulomb friction, solves until its slip bound settles
         (:func:`~suture_fem.physics.effects.friction.settle`; iterations summed).
         """
-        if self.friction is None:
+        if not self.laws:
             return self._solve_once()
-        return settle(self.friction, self._solve_once, self.absolute_tolerance)
+        return settle(self.laws, self._solve_once, self.absolute_tolerance)
 
     def _solve_once(self) -> tuple[bool, int, str]:
         """One SNES solve from the current state (see :meth:`solve`)."""

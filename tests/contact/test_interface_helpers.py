@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from suture_fem.outputs.interface import _arc_coordinate, _intervals, part_names
+from suture_fem.outputs.cone_gaps import intervals
+from suture_fem.outputs.interface import _arc_coordinate, part_names
 
 
 def test_arc_length_follows_a_filleted_outline_from_its_first_point():
@@ -27,9 +28,9 @@ def test_arc_length_follows_a_filleted_outline_from_its_first_point():
 
 def test_the_gap_map_lists_each_run_of_open_nodes_once():
     z = np.array([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
-    assert _intervals(z, np.array([0, 1, 1, 0, 1, 0, 1], dtype=bool)) == [[1.0, 2.0], [4.0, 4.0], [6.0, 6.0]]
-    assert _intervals(z, np.zeros(7, dtype=bool)) == []
-    assert _intervals(z, np.ones(7, dtype=bool)) == [[0.0, 6.0]]
+    assert intervals(z, np.array([0, 1, 1, 0, 1, 0, 1], dtype=bool)) == [[1.0, 2.0], [4.0, 4.0], [6.0, 6.0]]
+    assert intervals(z, np.zeros(7, dtype=bool)) == []
+    assert intervals(z, np.ones(7, dtype=bool)) == [[0.0, 6.0]]
 
 
 def test_parts_are_named_from_the_far_end():

@@ -39,7 +39,7 @@ sparsity is extended once by the pairs' couplings.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import dolfinx
@@ -66,7 +66,56 @@ OMEGA_MIN, OMEGA_MAX = 0.01, 2.0
 MATCH_TOLERANCE_M = 1e-12
 
 
-class ThreadFriction:
+class SlipBound:
+    """The slip bound's fixed point, shared by the thread's and the cones' Coulomb terms.
+
+    A subclass has ``comm``, ``mu``, ``weight`` (per pair, m^2), ``bound`` (per pair, Pa) and
+    :meth:`pressure` (the contact pressure per pair now, Pa).
+    """
+
+    comm: Any
+    mu: float
+    weight: np.ndarray
+    bound: np.ndarray
+
+    def pressure(self) -> np.ndarray:
+        """The contact pressure at each pair now (Pa)."""
+        raise NotImplementedError
+
+    def start(self) -> None:
+        """Forget the fixed point's history (a new load step's solve)."""
+        self._last: np.ndarray | None = None
+        self._omega = 1.0
+
+    def residual(self) -> float:
+        """How far the friction forces are from Coulomb's law: the 2-norm over the track of w |mu p - bound| (N)."""
+        return math.sqrt(self.comm.allreduce(float(np.sum(self._gap_forces() ** 2))))
+
+    def _gap_forces(self) -> np.ndarray:
+        return self.weight * (self.mu * self.pressure() - self.bound)
+
+    def update_bound(self) -> float:
+        """One fixed-point update of the bound toward mu times the contact pressure now (collective).
+
+        Returns :meth:`residual` before the update. The update is relaxed by Aitken's factor (Irons and
+        Tuck 1969; Kuettler and Wall, Comput Mech 43:61, 2008), omega_k = -omega_{k-1} r_{k-1} . (r_k -
+        r_{k-1}) / |r_k - r_{k-1}|^2, r the residual forces: a node that opens under a larger bound and
+        closes under a smaller one makes the plain iteration cycle, and a steep pressure-to-bound map
+        makes it diverge.
+        """
+        r = self._gap_forces()
+        norm = math.sqrt(self.comm.allreduce(float(np.sum(r * r))))
+        if self._last is not None:
+            dr = r - self._last
+            num, den = self.comm.allreduce(np.array([float(np.sum(self._last * dr)), float(np.sum(dr * dr))]))
+            if den > 0.0:
+                self._omega = float(np.clip(-self._omega * num / den, OMEGA_MIN, OMEGA_MAX))
+        self._last = r
+        self.bound = np.maximum(self.bound + self._omega * r / np.maximum(self.weight, 1e-300), 0.0)
+        return norm
+
+
+class ThreadFriction(SlipBound):
     """Coulomb friction's nodal terms on a split thread track (see the module docstring).
 
     Built from arrays, so the same terms serve a scene's thread (:meth:`of_physics`) and a rigid surface
@@ -133,38 +182,6 @@ class ThreadFriction:
         force = b.array[2 * self.track]
         b.destroy()
         return np.maximum(force, 0.0) / self.weight
-
-    def start(self) -> None:
-        """Forget the fixed point's history (a new load step's solve)."""
-        self._last: np.ndarray | None = None
-        self._omega = 1.0
-
-    def residual(self) -> float:
-        """How far the friction forces are from Coulomb's law: the 2-norm over the track of w |mu p - bound| (N)."""
-        return math.sqrt(self.comm.allreduce(float(np.sum(self._gap_forces() ** 2))))
-
-    def _gap_forces(self) -> np.ndarray:
-        return self.weight * (self.mu * self.pressure() - self.bound)
-
-    def update_bound(self) -> float:
-        """One fixed-point update of the bound toward mu times the contact pressure now (collective).
-
-        Returns :meth:`residual` before the update. The update is relaxed by Aitken's factor (Irons and
-        Tuck 1969; Kuettler and Wall, Comput Mech 43:61, 2008), omega_k = -omega_{k-1} r_{k-1} . (r_k -
-        r_{k-1}) / |r_k - r_{k-1}|^2, r the residual forces: a node that opens under a larger bound and
-        closes under a smaller one makes the plain iteration cycle, and a steep pressure-to-bound map
-        makes it diverge.
-        """
-        r = self._gap_forces()
-        norm = math.sqrt(self.comm.allreduce(float(np.sum(r * r))))
-        if self._last is not None:
-            dr = r - self._last
-            num, den = self.comm.allreduce(np.array([float(np.sum(self._last * dr)), float(np.sum(dr * dr))]))
-            if den > 0.0:
-                self._omega = float(np.clip(-self._omega * num / den, OMEGA_MIN, OMEGA_MAX))
-        self._last = r
-        self.bound = np.maximum(self.bound + self._omega * r / np.maximum(self.weight, 1e-300), 0.0)
-        return norm
 
     def potential(self, u_vec: Any) -> float:
         """Sum of w b s ln cosh(g / s), b the frozen bound: the terms' potential, for the line search (collective)."""
@@ -260,7 +277,7 @@ def _normal_form(physics: Any, kappa: float) -> Any:
     return compat.form(kappa * closed * v[0] * 2 * math.pi * x[0] * ds(int(Facet.TRACK)))
 
 
-def _global_dofs(physics: Any, nodes: np.ndarray, component: int) -> np.ndarray:
+def global_dofs(physics: Any, nodes: np.ndarray, component: int) -> np.ndarray:
     """Global indices in the state's vector of V's local ``nodes``' ``component`` (0: r, 1: z)."""
     local = 2 * np.asarray(nodes, dtype=np.int64) + component
     if physics.u_in_state is not None:
@@ -275,7 +292,7 @@ def _pairs(physics: Any, track: np.ndarray, thread: np.ndarray, weight: np.ndarr
     """(owned track nodes, 2) global dofs u_z(a), u_z(b), b the thread node at a's place; their weights."""
     xy = physics.V.tabulate_dof_coordinates()[:, :2]
     key = np.round(xy / MATCH_TOLERANCE_M).astype(np.int64)
-    mine = {(int(k[0]), int(k[1])): int(d) for k, d in zip(key[thread], _global_dofs(physics, thread, 1))}
+    mine = {(int(k[0]), int(k[1])): int(d) for k, d in zip(key[thread], global_dofs(physics, thread, 1))}
     faced: dict[tuple[int, int], int] = {}
     for part in physics.comm.allgather(mine):
         faced.update(part)
@@ -283,24 +300,25 @@ def _pairs(physics: Any, track: np.ndarray, thread: np.ndarray, weight: np.ndarr
     missing = int(physics.comm.allreduce(int(np.count_nonzero(partner < 0))))
     if missing:
         raise ValueError(f"{missing} track nodes face no thread node (the track is not split off the thread)")
-    dofs = np.stack([_global_dofs(physics, track, 1), partner], axis=1)
+    dofs = np.stack([global_dofs(physics, track, 1), partner], axis=1)
     return dofs, weight[track]
 
 
-def settle(friction: ThreadFriction, solve_once: Callable[[], tuple[bool, int, str]],
+def settle(laws: Sequence[SlipBound], solve_once: Callable[[], tuple[bool, int, str]],
            tolerance: Callable[[], float]) -> tuple[bool, int, str]:
-    """Newton solves, the bound moved toward mu p after each, until Coulomb's law holds to ``tolerance()`` (N).
+    """Newton solves, each law's bound moved toward mu p after each, until Coulomb's law holds to ``tolerance()`` (N).
 
     ``solve_once()`` is one Newton solve from the current state (converged, iterations, reason). Returns
-    the last solve's (converged, reason) with the iterations summed; a bound that has not settled after
-    :data:`FIXED_POINT_SOLVES` solves fails the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
+    the last solve's (converged, reason) with the iterations summed; bounds that have not settled after
+    :data:`FIXED_POINT_SOLVES` solves fail the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
     """
     converged, its, reason = solve_once()
-    friction.start()
+    for law in laws:
+        law.start()
     for _ in range(FIXED_POINT_SOLVES):
         if not converged:
             return converged, its, reason
-        if friction.update_bound() <= tolerance():
+        if max([law.update_bound() for law in laws]) <= tolerance():  # every law updated, then judged
             return converged, its, reason
         converged, more, reason = solve_once()
         its += more

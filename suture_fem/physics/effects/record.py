@@ -21,6 +21,20 @@ HOLD_SKIPPED = (
 )
 
 
+_CONE_PAIRS = ("the tissue's side of every cone surface has its own nodes, each paired with the cone node it faced "
+               "in the reference configuration; a penalty acts on their relative motion along the cone's normal there")
+#: What each cone interface model is, for the record.
+CONE_MODELS = {
+    "tied": "tied: the cones and the tissue share their interface nodes",
+    "sliding": f"bilateral frictionless sliding: {_CONE_PAIRS}, both ways; free along the surface",
+    "frictionless": f"unilateral frictionless contact: {_CONE_PAIRS}, against penetration only (the tissue may lift "
+                    "off); free along the surface",
+    "coulomb": f"unilateral contact with Coulomb friction: {_CONE_PAIRS}, against penetration only; along the surface "
+               "the pair sticks until the traction reaches mu times the contact pressure (a regularised slip), then "
+               "slides",
+}
+
+
 @dataclass(frozen=True)
 class Effects:
     """What a scene calls for (validated ``[effects]`` and ``output.quantities``)."""
@@ -32,6 +46,7 @@ class Effects:
     quantities: tuple[str, ...] = QUANTITIES
     hold_s: float = 0.0
     thread_interface: str = "tied"
+    cone_interface: str = "tied"
 
     @classmethod
     def from_scene(cls, scene: Scene) -> Effects:
@@ -45,6 +60,7 @@ class Effects:
             quantities=tuple(q for q in QUANTITIES if q in scene.output.quantities),
             hold_s=scene.loading.hold_s,
             thread_interface=e.thread_interface,
+            cone_interface=e.cone_interface,
         )
 
     @property
@@ -71,6 +87,16 @@ class Effects:
     def frictional_thread(self) -> bool:
         """Coulomb friction between the thread and the tissue (``effects.thread_interface = "coulomb"``)."""
         return self.thread_interface == "coulomb"
+
+    @property
+    def cone_contact(self) -> bool:
+        """The tissue has its own nodes on the cones' surfaces (``effects.cone_interface`` not ``"tied"``)."""
+        return self.cone_interface in TRACK_INTERFACES
+
+    @property
+    def contact(self) -> bool:
+        """A penalty acts somewhere: the tissue may leave the thread, or has its own nodes on the cones."""
+        return self.unilateral_thread or self.cone_contact
 
     @property
     def mixed(self) -> bool:
@@ -117,7 +143,7 @@ class Effects:
                 "left_out": "effects.incompressibility = \"displacement\": no pressure field"}
 
     def _interfaces(self, notes: dict[str, Any]) -> dict[str, Any]:
-        rec: dict[str, Any] = {"thread": self.thread_interface, "cones": "tied"}
+        rec: dict[str, Any] = {"thread": self.thread_interface, "cones": self.cone_interface}
         if self.sliding_thread:
             rec["thread_model"] = ("bilateral frictionless sliding: the tissue's side of the thread's track has its "
                                    "own nodes, held at r = thread radius (u_r = 0) and free along it")
@@ -133,7 +159,7 @@ class Effects:
                                    "enter it (u_r >= 0 by a penalty)")
         else:
             rec["thread_model"] = "tied: the thread and the tissue share their interface nodes (the paper's model)"
-        rec["cone_model"] = "tied: the cones and the tissue share their interface nodes"
+        rec["cone_model"] = CONE_MODELS[self.cone_interface]
         return {**rec, **notes.get("interfaces", {})}
 
     def _hold(self) -> dict[str, Any]:
@@ -167,6 +193,12 @@ def check_scene(scene: Scene) -> None:
     if scene.loading.control == "displacement" and (e.inertia or e.gravity):
         raise SceneError('scene key loading.control = "displacement" needs effects.inertia = false and '
                          "effects.gravity = false (the time history and the weight's preload are force-driven)")
+    if e.cone_interface != "tied" and scene.geometry.cones == 0:
+        raise SceneError(f'scene key effects.cone_interface = "{e.cone_interface}" needs geometry.cones >= 1 '
+                         '(there is no cone surface); use "tied" with geometry.cones = 0')
+    if e.cone_interface != "tied" and e.inertia:
+        raise SceneError(f'scene key effects.cone_interface = "{e.cone_interface}" needs effects.inertia = false '
+                         "(the cones' contact terms are not part of the time history)")
     quantities = scene.output.quantities
     if not quantities:
         raise SceneError("scene key output.quantities must name at least one of " + ", ".join(QUANTITIES))

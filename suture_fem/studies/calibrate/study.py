@@ -35,6 +35,9 @@ def check_scene(scene: Scene) -> None:
     if scene.effects.thread_interface == "coulomb":
         raise SceneError('scene key effects.thread_interface = "coulomb": calibrate\'s sensitivities do not include '
                          'friction (use "tied", "sliding" or "frictionless")')
+    if scene.effects.cone_interface != "tied":
+        raise SceneError(f'scene key effects.cone_interface = "{scene.effects.cone_interface}": calibrate\'s '
+                         'sensitivities do not include the cones\' hand-assembled contact terms (use "tied")')
 
 
 def calibrate(scene: Scene, points: list[Point], keys: list[FitKey], comm: Any, out: Path | None = None,

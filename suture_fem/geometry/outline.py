@@ -1,0 +1,115 @@
+"""Closest points on a cone's outline: the contact search of the cones' interface, and the profiles' arc length.
+
+A cone's outline (:class:`~suture_fem.geometry.section.Cone`) is a closed chain of line and circular-arc
+segments in the (r, z) half-plane, starting on the thread at the apex and running round the cone's
+tissue-facing surface. :func:`project` gives, for each point, the nearest point of the outline, its arc
+length from the outline's start, the signed distance (positive outside the cone), the outward unit normal
+(the signed distance's gradient) and the unit tangent along the outline there. Pure numpy, vectorised
+over the points; a handful of segments per cone.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Distance (mm) below which a point counts as on a corner of the outline (its normal is then the corner's).
+ON_CORNER_MM = 1e-9
+
+
+@dataclass(frozen=True)
+class Projection:
+    """The nearest outline point of each of n points (arrays of length n, or (n, 2))."""
+
+    s: np.ndarray
+    distance: np.ndarray
+    normal: np.ndarray
+    tangent: np.ndarray
+    segment: np.ndarray
+    corner: np.ndarray
+
+
+def _line(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, ...]:
+    d = q - p
+    length = float(np.linalg.norm(d))
+    t = np.clip(((points - p) @ d) / max(length**2, 1e-300), 0.0, 1.0)
+    near = p + t[:, None] * d
+    tangent = np.broadcast_to(d / max(length, 1e-300), points.shape)
+    return near, t * length, tangent, length, (t <= 0.0) | (t >= 1.0)
+
+
+def _arc(points: np.ndarray, p: np.ndarray, c: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, ...]:
+    radius = float(np.linalg.norm(p - c))
+    a0 = math.atan2(*(p - c)[::-1])
+    sweep = (math.atan2(*(q - c)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi
+    ang = np.arctan2(points[:, 1] - c[1], points[:, 0] - c[0]) - a0
+    ang = (ang + math.pi) % (2 * math.pi) - math.pi
+    t = np.clip(ang / sweep if sweep else 0.0, 0.0, 1.0)
+    phi = a0 + t * sweep
+    near = c + radius * np.stack([np.cos(phi), np.sin(phi)], axis=1)
+    tangent = math.copysign(1.0, sweep) * np.stack([-np.sin(phi), np.cos(phi)], axis=1)
+    return near, t * abs(sweep) * radius, tangent, abs(sweep) * radius, (t <= 0.0) | (t >= 1.0)
+
+
+def _vertices(outline: list) -> np.ndarray:
+    """The outline as a polygon (arcs by 16 chords): for the inside test and the orientation."""
+    pts = []
+    for kind, seg in outline:
+        if kind == "line":
+            pts.append(seg[0])
+        else:
+            p, c, q = (np.array(v, dtype=float) for v in seg)
+            a0 = math.atan2(*(p - c)[::-1])
+            sweep = (math.atan2(*(q - c)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi
+            radius = float(np.linalg.norm(p - c))
+            pts += [tuple(c + radius * np.array([math.cos(a0 + f * sweep), math.sin(a0 + f * sweep)]))
+                    for f in np.linspace(0.0, 1.0, 16, endpoint=False)]
+    return np.array(pts, dtype=float)
+
+
+def inside(points: np.ndarray, outline: list) -> np.ndarray:
+    """Whether each point lies inside the closed outline (ray casting along +r)."""
+    poly = _vertices(outline)
+    a, b = poly, np.roll(poly, -1, axis=0)
+    x, y = points[:, 0][:, None], points[:, 1][:, None]
+    crosses = (a[None, :, 1] > y) != (b[None, :, 1] > y)
+    at = a[None, :, 0] + (y - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / np.where(
+        b[None, :, 1] == a[None, :, 1], 1e-300, b[None, :, 1] - a[None, :, 1])
+    return np.count_nonzero(crosses & (x < at), axis=1) % 2 == 1
+
+
+def project(points: np.ndarray, outline: list) -> Projection:
+    """The nearest point of ``outline`` to each of ``points`` ((n, 2), mm): see :class:`Projection`.
+
+    A tie between two segments (a corner) keeps the earlier segment's arc length. The normal is the
+    signed distance's gradient: (point - nearest) / distance, turned outward; on the outline itself the
+    segment's outward normal. ``corner``: the nearest point is a corner (an end of its segment) off the point:
+    the signed distance is then the distance to that point, whose Hessian is (I - n n^T) / distance.
+    """
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    n = len(points)
+    best = np.full(n, np.inf)
+    out = {"s": np.zeros(n), "near": np.zeros((n, 2)), "tangent": np.zeros((n, 2)), "segment": np.zeros(n, int),
+           "end": np.zeros(n, bool)}
+    start = 0.0
+    for k, (kind, seg) in enumerate(outline):
+        pts = [np.array(v, dtype=float) for v in seg]
+        near, s, tangent, length, end = _line(points, *pts) if kind == "line" else _arc(points, *pts)
+        dist = np.linalg.norm(points - near, axis=1)
+        closer = dist < best - 1e-12
+        best[closer] = dist[closer]
+        out["s"][closer], out["near"][closer] = start + s[closer], near[closer]
+        out["tangent"][closer], out["segment"][closer], out["end"][closer] = tangent[closer], k, end[closer]
+        start += length
+    poly = _vertices(outline)
+    ccw = 0.5 * float(np.sum(poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1])) > 0
+    turned = np.stack([out["tangent"][:, 1], -out["tangent"][:, 0]], axis=1)  # the tangent turned clockwise
+    outward = turned if ccw else -turned
+    sign = np.where(inside(points, outline), -1.0, 1.0)
+    offset = points - out["near"]
+    normal = np.where((best > ON_CORNER_MM)[:, None], sign[:, None] * offset / np.maximum(best, 1e-300)[:, None],
+                      outward)
+    return Projection(s=out["s"], distance=sign * best, normal=normal, tangent=out["tangent"], segment=out["segment"],
+                      corner=out["end"] & (best > ON_CORNER_MM))

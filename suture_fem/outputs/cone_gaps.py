@@ -1,0 +1,71 @@
+"""The cones' side of the interface output when the cones are not tied (``effects.cone_interface``).
+
+Per tissue node on a cone (:class:`~suture_fem.physics.effects.cone_contact.ConeContact`'s pairs): the gap
+(mm; positive: the tissue has lifted off the cone there; negative: the penalty's penetration) and the slip
+(mm; how far the cone has slid past the tissue along its surface, positive toward the pull). Per cone: the
+largest slip, opening and penetration, and the arc-length ranges where the tissue has separated, with how
+many nodes are closed (sticking or slipping under Coulomb friction) and open.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from suture_fem.support import compat
+
+#: A node counts as separated when its gap exceeds this (mm): 0.1 um, far below an element (50-150 um) and
+#: above a closed node's penalty penetration's sign noise.
+SEPARATION_MM = 1e-4
+
+
+def cone_nodes(physics: Any, nodes: np.ndarray) -> dict[str, np.ndarray]:
+    """``cone_gap``, ``cone_slip`` (mm) at the interface output's owned ``nodes`` (0 off the pairs; collective)."""
+    contact = physics.cone_contact
+    profile = contact.profile(compat.function_vector(physics.state))
+    where = {int(n): k for k, n in enumerate(contact.nodes)}
+    index = np.array([where.get(int(n), -1) for n in nodes], dtype=np.int64)
+    paired = index >= 0
+    out = {}
+    for key, name in (("cone_gap", "gap_mm"), ("cone_slip", "slip_mm")):
+        values = np.zeros(len(nodes))
+        values[paired] = profile[name][index[paired]]
+        out[key] = values
+    out["cone_pair"] = paired
+    return out
+
+
+def cone_record(physics: Any, profiles: dict[str, Any], names: list[str]) -> dict[str, Any]:
+    """``cone_contact``: each cone's largest slip, opening, penetration, separated arc ranges; node counts."""
+    per_cone = {}
+    for name in names[:-1]:
+        prof = profiles[name]
+        gap = np.asarray(prof.get("gap_mm", []), dtype=float)
+        slip = np.asarray(prof.get("slip_mm", []), dtype=float)
+        s = np.asarray(prof["s_mm"], dtype=float)
+        per_cone[name] = {
+            "slip_max_mm": float(np.max(np.abs(slip))) if len(slip) else 0.0,
+            "opening_max_mm": float(max(np.max(gap), 0.0)) if len(gap) else 0.0,
+            "penetration_max_mm": float(max(-np.min(gap), 0.0)) if len(gap) else 0.0,
+            "separated_s_mm": intervals(s, gap > SEPARATION_MM),
+        }
+    contact = physics.cone_contact
+    state = compat.function_vector(physics.state)
+    record: dict[str, Any] = {"model": contact.model, **contact.status(state), "cones": per_cone}
+    if contact.mu > 0.0:
+        record["coulomb_residual_n"] = contact.residual()
+    return {"cone_contact": record}
+
+
+def intervals(z: np.ndarray, open_: np.ndarray) -> list[list[float]]:
+    """The ranges (mm) of consecutive open nodes along an ordered coordinate, [first, last] of each run."""
+    out: list[list[float]] = []
+    start = None
+    for k in range(len(z)):
+        if open_[k] and start is None:
+            start = k
+        if start is not None and (k == len(z) - 1 or not open_[k + 1]):
+            out.append([float(z[start]), float(z[k])])
+            start = None
+    return out

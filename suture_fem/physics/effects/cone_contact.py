@@ -1,0 +1,300 @@
+"""Contact of the tissue with the cones' surfaces (``effects.cone_interface`` = "sliding", "frictionless", "coulomb").
+
+The mesh gives the tissue its own nodes on every cone surface (facets tagged ``cone_contact``;
+:func:`~suture_fem.geometry.gmsh_model.split_interfaces`). The cone is nearly rigid (its modulus is five
+orders above the tissue's), so its surface now is taken as its reference outline moved axially by the
+cone's mean axial displacement t_c (the mean u_z of its interface nodes; exactly its motion for the rigid
+suture). The contact search follows each tissue node a wherever it slides: at every residual and
+Jacobian evaluation its position relative to the cone, y = X_a + u_a - t_c e_z, is projected onto the
+outline (:func:`~suture_fem.geometry.outline.project`: the nearest point, arc length s, signed distance
+phi, positive outside, outward normal n and tangent T). With w the node's lumped 2 pi r-weighted area
+(m^2) and kappa the frictionless thread's penalty stiffness
+(:func:`~suture_fem.physics.effects.contact.penalty_stiffness`), the potential is
+
+    sliding:        sum_a 1/2 kappa w phi^2        (bilateral: the tissue stays on the cone's surface)
+    frictionless:   sum_a 1/2 kappa w <-phi>^2     (unilateral: the tissue may lift off, not enter)
+    coulomb:        frictionless + sum_a w b s ln cosh(g / s),   g = s(y) - s(X_a),
+
+p = kappa <-phi> the contact pressure and g the total slip along the outline (a deformation theory, as
+for the thread). Coulomb's bound b is frozen during a Newton solve and moved to mu p between solves, as
+for the thread (:class:`~suture_fem.physics.effects.friction.SlipBound`). The Jacobian is the penalty's
+kappa w n n^T where the nearest point is on a straight segment and kappa w I where it is a corner (both
+exact; a fillet arc's curvature term is left out), plus the friction's w t'(g) T T^T (its tangent's
+turning left out). A node's terms couple its two dofs with the axial dofs of its
+cone's interface nodes (through t_c), so the matrix pattern is set once, whatever the node slides past.
+
+Left out: the cone's own deformation in the search (its axial strain at 4 N is below 0.3 %, a few um
+over the cone; its radial strain from the contact pressure is below 1e-4). The terms are assembled by
+hand into the full residual and Jacobian before the solver's reduction, like the thread's friction
+(UFL forms cannot couple nodes that share no cell).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry import regions
+from suture_fem.geometry.outline import project
+from suture_fem.geometry.regions import Facet
+from suture_fem.physics.constraints import mark_dofs
+from suture_fem.physics.effects.friction import SlipBound, global_dofs
+from suture_fem.support import compat
+
+
+class ConeContact(SlipBound):
+    """The cones' contact terms (see the module docstring).
+
+    Attributes:
+        pairs: the tissue's cone-contact nodes owned on this rank; nodes: V's local node a of each;
+        dofs: (pairs, 2) global dofs (u_r(a), u_z(a)); X: (pairs, 2) reference positions (mm); cone: (pairs,)
+        the cone of each; s0: (pairs,) the reference arc length (mm); weight: (pairs,) m^2; cone_dofs: per
+        cone, the global axial dofs of its interface nodes (every rank's); outlines: per cone, its outline;
+        kappa (Pa/m); model; mu (0: no friction); slip: s (m); bound: (pairs,) the frozen slip limit (Pa).
+    """
+
+    def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
+                 slip_m: float):
+        """``state``: the state's PETSc vector; ``pairs``: :func:`cone_pairs`'s arrays."""
+        self.comm, self.kappa, self.model = comm, float(kappa), model
+        self.bilateral = model == "sliding"
+        self.mu = float(mu) if model == "coulomb" else 0.0
+        self.slip = float(slip_m)
+        self.nodes, self.dofs, self.X = pairs["nodes"], pairs["dofs"], pairs["X"]
+        self.cone, self.weight, self.outlines = pairs["cone"], pairs["weight"], pairs["outlines"]
+        self.cone_dofs: list[np.ndarray] = pairs["cone_dofs"]
+        self.pairs = len(self.weight)
+        self.s0 = np.zeros(self.pairs)
+        for c, outline in enumerate(self.outlines):
+            sel = self.cone == c
+            self.s0[sel] = project(self.X[sel], outline).s
+        self.bound = np.zeros(self.pairs)
+        self._state = state
+        self.start()
+        index_all = np.concatenate([self.dofs.ravel(), *self.cone_dofs]).astype(PETSc.IntType)
+        self._local = PETSc.Vec().createSeq(len(index_all), comm=PETSc.COMM_SELF)
+        index = PETSc.IS().createGeneral(index_all, comm=PETSc.COMM_SELF)
+        self._scatter = PETSc.Scatter().create(state, index, self._local, None)
+        index.destroy()
+
+    @classmethod
+    def on(cls, physics: Any, section: Any, kappa: float) -> ConeContact:
+        """The cones' contact of a built Physics (its cone surfaces split); its numbers join the record.
+
+        ``section``: the scene's ``[effects]`` (``cone_interface``, ``friction_coefficient``, ``friction_slip_mm``).
+        """
+        contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
+                      section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM)
+        physics.notes.setdefault("interfaces", {}).update(contact.notes())
+        return contact
+
+    def search(self, u_vec: Any) -> dict[str, np.ndarray]:
+        """Each pair's place on its cone now: ``phi``, ``g`` (m), ``n``, ``T`` ((pairs, 2)) (collective).
+
+        Also ``t_c`` (m), the cones' mean axial displacements.
+        """
+        self._scatter.scatter(u_vec, self._local, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        values = self._local.getArray(readonly=True)
+        u = values[: 2 * self.pairs].reshape(self.pairs, 2)
+        at, t_c = 2 * self.pairs, []
+        for dofs in self.cone_dofs:
+            t_c.append(float(np.mean(values[at: at + len(dofs)])) if len(dofs) else 0.0)
+            at += len(dofs)
+        y = self.X + (u - np.stack([np.zeros(self.pairs), np.asarray(t_c)[self.cone]], axis=1)) / regions.MM
+        out = {"phi": np.zeros(self.pairs), "g": np.zeros(self.pairs), "n": np.zeros((self.pairs, 2)),
+               "T": np.zeros((self.pairs, 2)), "corner": np.zeros(self.pairs, dtype=bool), "t_c": np.asarray(t_c)}
+        for c, outline in enumerate(self.outlines):
+            sel = self.cone == c
+            proj = project(y[sel], outline)
+            out["phi"][sel], out["g"][sel] = proj.distance * regions.MM, (proj.s - self.s0[sel]) * regions.MM
+            out["n"][sel], out["T"][sel], out["corner"][sel] = proj.normal, proj.tangent, proj.corner
+        return out
+
+    def _normal_force(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(q, k): the penalty's dE/dphi per pair (N/m... times w: N) and its derivative (closed: kappa w)."""
+        if self.bilateral:
+            return self.kappa * self.weight * phi, self.kappa * self.weight
+        closed = phi < 0.0
+        return self.kappa * self.weight * np.where(closed, phi, 0.0), self.kappa * self.weight * closed
+
+    def pressure(self) -> np.ndarray:
+        """The contact pressure per pair now (Pa): -kappa phi where closed (sliding: negative where it holds on)."""
+        phi = self.search(self._state)["phi"]
+        return -self.kappa * (phi if self.bilateral else np.minimum(phi, 0.0))
+
+    def _law(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        th = np.tanh(g / self.slip)
+        return self.bound * th, self.bound * (1.0 - th * th) / self.slip
+
+    def potential(self, u_vec: Any) -> float:
+        """The penalty's and (Coulomb) the frozen-bound friction's potential (J; collective)."""
+        found = self.search(u_vec)
+        phi = found["phi"] if self.bilateral else np.minimum(found["phi"], 0.0)
+        value = 0.5 * self.kappa * self.weight * phi**2
+        if self.mu > 0.0:
+            x = np.abs(found["g"]) / self.slip
+            value = value + self.weight * self.bound * self.slip * (x + np.log1p(np.exp(-2.0 * x)) - math.log(2.0))
+        return float(self.comm.allreduce(float(np.sum(value))))
+
+    def _gradient_hessian(self, u_vec: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2; the arcs' curvature term left out)."""
+        found = self.search(u_vec)
+        q, k = self._normal_force(found["phi"])
+        n, T = found["n"], found["T"]
+        grad = q[:, None] * n
+        # d2(phi^2 / 2) = n n^T + phi d2(phi): on a segment n n^T; off a corner the identity (a point's distance)
+        outer = np.where(found["corner"][:, None, None], np.eye(2)[None, :, :], n[:, :, None] * n[:, None, :])
+        hess = k[:, None, None] * outer
+        if self.mu > 0.0:
+            t, dt = self._law(found["g"])
+            grad += (self.weight * t)[:, None] * T
+            hess += (self.weight * dt)[:, None, None] * T[:, :, None] * T[:, None, :]
+        return grad, hess
+
+    def add_residual(self, u_vec: Any, b: Any) -> None:
+        """Add the terms' gradient to the full residual ``b`` (assembled; collective).
+
+        Node a receives dE/dy; the cone's axial dofs share -dE/dy_z equally (y moves by -t_c e_z).
+        """
+        grad, _ = self._gradient_hessian(u_vec)
+        rows = [self.dofs.ravel()]
+        values = [grad.ravel()]
+        for c, dofs in enumerate(self.cone_dofs):
+            if len(dofs):
+                rows.append(dofs)
+                values.append(np.full(len(dofs), -float(np.sum(grad[self.cone == c, 1])) / len(dofs)))
+        b.setValues(np.concatenate(rows).astype(PETSc.IntType), np.concatenate(values),
+                    addv=PETSc.InsertMode.ADD_VALUES)
+        b.assemble()
+
+    def add_jacobian(self, u_vec: Any, A: Any) -> None:
+        """Add the terms' Hessian (symmetric) to the full Jacobian ``A`` (assembled; collective)."""
+        _, hess = self._gradient_hessian(u_vec)
+        self._add_blocks(A, hess)
+
+    def _add_blocks(self, A: Any, hess: np.ndarray) -> None:
+        """K_aa = H, K_ab = -H[:, z] alpha, K_bb = sum_a H_zz alpha alpha^T for every pair's H (alpha = 1 / n_b)."""
+        for c, dofs in enumerate(self.cone_dofs):
+            sel = np.flatnonzero(self.cone == c)
+            alpha = 1.0 / max(len(dofs), 1)
+            cols = [int(i) for i in dofs]
+            for k in sel:
+                rows = [int(i) for i in self.dofs[k]]
+                A.setValues(rows, rows, hess[k], addv=PETSc.InsertMode.ADD_VALUES)
+                if cols:
+                    coupling = np.repeat(-hess[k][:, 1:2] * alpha, len(cols), axis=1)
+                    A.setValues(rows, cols, coupling, addv=PETSc.InsertMode.ADD_VALUES)
+                    A.setValues(cols, rows, coupling.T.copy(), addv=PETSc.InsertMode.ADD_VALUES)
+            if cols and len(sel):
+                block = np.full((len(cols), len(cols)), float(np.sum(hess[sel, 1, 1])) * alpha * alpha)
+                A.setValues(cols, cols, block, addv=PETSc.InsertMode.ADD_VALUES)
+        A.assemble()
+
+    def extend_pattern(self, A: Any) -> None:
+        """Make room in A, once, for every coupling the terms add (new nonzeros, stored as zeros)."""
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, False)
+        A.setOption(PETSc.Mat.Option.NO_OFF_PROC_ENTRIES, False)
+        self._add_blocks(A, np.zeros((self.pairs, 2, 2)))
+
+    def profile(self, u_vec: Any) -> dict[str, np.ndarray]:
+        """Per pair (this rank's): gap, slip, pressure and friction shear (collective).
+
+        ``gap_mm`` is phi (positive: open), ``slip_mm`` g (how far along the cone's outline the tissue node has
+        moved, relative to the cone), ``pressure_pa`` -kappa phi where closed, ``shear_pa`` the friction
+        traction on the tissue along the outline.
+        """
+        found = self.search(u_vec)
+        shear = -self._law(found["g"])[0] if self.mu > 0.0 else np.zeros(self.pairs)
+        phi = found["phi"] if self.bilateral else np.minimum(found["phi"], 0.0)
+        return {"gap_mm": found["phi"] / regions.MM, "slip_mm": found["g"] / regions.MM,
+                "pressure_pa": -self.kappa * phi, "shear_pa": shear}
+
+    def status(self, u_vec: Any) -> dict[str, int]:
+        """How many cone-contact nodes are closed and stick, closed and slip, open (all ranks)."""
+        found = self.search(u_vec)
+        closed = np.ones(self.pairs, dtype=bool) if self.bilateral else found["phi"] < 0.0
+        stick = closed & (np.abs(found["g"]) < 2.0 * self.slip) if self.mu > 0.0 else np.zeros(self.pairs, bool)
+        counts = np.array([stick.sum(), (closed & ~stick).sum(), (~closed).sum()])
+        stick_n, slip_n, open_n = (int(v) for v in self.comm.allreduce(counts))
+        return {"stick_nodes": stick_n, "slip_nodes": slip_n, "open_nodes": open_n}
+
+    def notes(self) -> dict[str, Any]:
+        """The record's numbers: the pairs, the penalty, and (Coulomb) the coefficient and the slip."""
+        out: dict[str, Any] = {"cone_contact_pairs": int(self.comm.allreduce(self.pairs)),
+                               "cone_contact_penalty_pa_per_m": self.kappa,
+                               "cone_contact_search": "each tissue node's nearest point on its cone's outline, the "
+                                                      "outline moved by the cone's mean axial displacement, at "
+                                                      "every residual and Jacobian evaluation"}
+        if self.model == "coulomb":
+            out.update({"cone_friction_coefficient": self.mu, "friction_slip_mm": self.slip / regions.MM})
+        return out
+
+    def destroy(self) -> None:
+        """Free the scatter and its local vector."""
+        self._scatter.destroy()
+        self._local.destroy()
+
+
+def cone_pairs(physics: Any) -> dict[str, Any]:
+    """The owned cone-contact nodes of the tissue, their cones, lumped areas and the cones' axial dofs (collective)."""
+    V, mesh, tagged = physics.V, physics.mesh, physics.tagged
+    fdim = mesh.topology.dim - 1
+    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
+    n_local = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
+    owned = V.dofmap.index_map.size_local
+    facets = meshmod.facets(tagged, Facet.CONE_CONTACT)
+    if mesh.comm.allreduce(len(facets)) == 0:
+        raise ValueError("effects.cone_interface needs the mesh built with the cones' surfaces split "
+                         "(suture_fem.geometry.mesh.scene_mesh, or create_mesh(..., split_cones=True))")
+    suture = mark_dofs(V, meshmod.region_cells(tagged, regions.SUTURE)).reshape(n_local, -1).any(axis=1)
+    on = np.zeros(n_local, dtype=bool)
+    on[dolfinx.fem.locate_dofs_topological(V, fdim, facets)] = True
+    nodes = np.flatnonzero(on & ~suture)
+    nodes = nodes[nodes < owned]
+    v = ufl.TestFunction(V)
+    x = ufl.SpatialCoordinate(mesh)
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags)(int(Facet.CONE_CONTACT))
+    area = _assembled(v[1] * 2 * math.pi * x[0] * ds, owned)[:, 1]  # int phi 2 pi r ds: the lumped area
+    xy = V.tabulate_dof_coordinates()[:, :2] / regions.MM
+    cones = tagged.geometry.cones
+    cone = _cone_of(xy[nodes], cones, tagged.geometry.z_end)
+    cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)
+    faces = np.zeros(n_local, dtype=bool)
+    faces[dolfinx.fem.locate_dofs_topological(V, fdim, meshmod.facets(tagged, Facet.INTERFACE))] = True
+    surface = np.flatnonzero(cone_cells & faces)
+    surface = surface[surface < owned]
+    of_surface = _cone_of(xy[surface], cones, tagged.geometry.z_end)
+    axial = global_dofs(physics, surface, 1)
+    cone_dofs = [np.concatenate(physics.comm.allgather(axial[of_surface == c])).astype(np.int64)
+                 for c in range(len(cones))]
+    dofs = np.stack([global_dofs(physics, nodes, 0), global_dofs(physics, nodes, 1)], axis=1)
+    return {"nodes": nodes, "dofs": dofs, "X": xy[nodes], "cone": cone, "weight": area[nodes],
+            "cone_dofs": cone_dofs, "outlines": [c.outline for c in cones]}
+
+
+def _cone_of(xy_mm: np.ndarray, cones: list, z_end: float) -> np.ndarray:
+    """The cone whose axial extent holds each point (-1 for none)."""
+    tol = 1e-9 * max(z_end, 1.0)
+    out = np.full(len(xy_mm), -1, dtype=np.int64)
+    for k, c in enumerate(cones):
+        lo, hi = min(c.base_z, c.apex_z), max(c.base_z, c.apex_z)
+        out[(xy_mm[:, 1] >= lo - tol) & (xy_mm[:, 1] <= hi + tol)] = k
+    return out
+
+
+def _assembled(linear: Any, owned: int) -> np.ndarray:
+    """A vector form's owned nodal values, (owned, 2) (collective)."""
+    b = dolfinx.fem.petsc.assemble_vector(compat.form(linear))
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    values = b.array[: 2 * owned].reshape(-1, 2).copy()
+    b.destroy()
+    return values

@@ -176,8 +176,11 @@ def main() -> int:
     verdict = targets(rows[1:])
     for line in verdict["lines"]:
         print(line)
+    print(f"peak memory of this process (the Model and its kept search data): "
+          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
     record = {"scene": "paper", "sets": SETS, "rows": rows, "targets": verdict["met"],
-              "python": sys.version.split()[0], "load": os.getloadavg()}
+              "python": sys.version.split()[0], "load": os.getloadavg(),
+              "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
     (out / "many_answers.json").write_text(json.dumps(record, indent=2) + "\n")
     print(f"wrote {out / 'many_answers.json'}")
     return 0

@@ -44,6 +44,9 @@ def register(subparsers: Any, scene_args: Any) -> None:
                    help="rungs (default): each cone count on its mesh rung, the cheapest with USUM within 1 %% of "
                         "the mesh-converged value (docs/speed.md; a --set mesh.KEY still wins); scene: the "
                         "scene's own mesh for every cone count")
+    p.add_argument("--cones", type=int, nargs="+", default=None, metavar="N",
+                   help="solve only these cone counts (default: all of the paper's, 1 2 3 4); the values of the "
+                        "others are then missing (exit 3). The calibration solves its 4 cones regardless")
     p.set_defaults(handler=reproduce_command)
     p = subparsers.add_parser("reproduce-ramp", help="(internal) one cone count's ramp of `reproduce --jobs`")
     p.add_argument("cases", nargs="+", help="the case.json files `reproduce` wrote, solved in turn")
@@ -81,6 +84,10 @@ def reproduce_command(args: argparse.Namespace, comm: Any) -> int:
     parse_key(args.calibrate, scene)  # a bad key or bounds: one line, exit 2, before any meshing
     if args.max_evaluations < 1:
         raise SceneError(f"--max-evaluations {args.max_evaluations}: expected an integer >= 1")
+    cones = tuple(sorted(set(args.cones))) if args.cones else CONES
+    if not set(cones) <= set(CONES):
+        raise SceneError(f"--cones {' '.join(map(str, args.cones))}: the paper's cone counts are "
+                         f"{', '.join(map(str, CONES))}")
     jobs = _jobs(args.jobs, comm)
     keys = {parse_override(o)[0] for o in args.overrides}
     fixed = frozenset(k for k in keys if k.startswith("mesh.")) if args.mesh == "rungs" else None
@@ -90,7 +97,7 @@ def reproduce_command(args: argparse.Namespace, comm: Any) -> int:
     out = Path(args.out)
     cmp = reproduce(scene, out, comm, calibrate_key=args.calibrate, pictures=not args.no_pictures,
                     scene_name=Path(args.scene).stem if str(args.scene).endswith(".toml") else args.scene,
-                    max_evaluations=args.max_evaluations, fixed=fixed, jobs=jobs,
+                    max_evaluations=args.max_evaluations, fixed=fixed, jobs=jobs, cones=cones,
                     estimates=estimates and args.mesh == "rungs")
     if comm.rank == 0:
         w = cmp["largest_prediction_error"]

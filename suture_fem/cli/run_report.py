@@ -11,7 +11,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from suture_fem.geometry.regions import TISSUE_REGIONS
+from suture_fem.geometry.regions import TISSUE_REGIONS, WHOLE_TISSUE
 
 log = logging.getLogger("suture_fem")
 
@@ -98,7 +98,7 @@ def _estimate(results: Any, force_n: float, key: str) -> float | None:
 
 def _converged_line(results: Any, rec: dict[str, Any]) -> str | None:
     """The tissue's critical-distance SEQV and EPTOEQV (each +- its estimated error where known), or None."""
-    tissue = rec.get("regions", {}).get("tissue", {})
+    tissue = rec.get("regions", {}).get(WHOLE_TISSUE, {})
     cells = []
     for label, key, scale, unit in CONVERGED:
         if key not in tissue:

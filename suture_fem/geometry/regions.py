@@ -46,7 +46,13 @@ class Facet(IntEnum):
 
 #: The material regions, tissue layers inside out, then the suture.
 TISSUE_REGIONS: tuple[str, ...] = ("hypodermis", "dermis", "epidermis")
-REGIONS: tuple[str, ...] = (*TISSUE_REGIONS, "suture")
+SUTURE_REGION = "suture"
+REGIONS: tuple[str, ...] = (*TISSUE_REGIONS, SUTURE_REGION)
+#: The tissue layers taken together: results.json's ``regions.tissue`` (not a material region: it has no
+#: table of its own); the laws of the layers are the "tissue" laws (``scene/laws.py``).
+WHOLE_TISSUE = "tissue"
+#: Every name of results.json's ``regions``: the material regions and the whole tissue.
+REPORTED_REGIONS: tuple[str, ...] = (*REGIONS, WHOLE_TISSUE)
 
 #: Cell tags of each material region.
 REGION_TAGS: dict[str, tuple[int, ...]] = {

@@ -27,14 +27,14 @@ from suture_fem.physics import kinematics
 from suture_fem.physics.forms import quadrature_degree
 from suture_fem.physics.materials import cauchy
 from suture_fem.physics.problem import Physics
-from suture_fem.scene.schema import OutputSection
+from suture_fem.scene.schema import OUTPUT_QUANTITIES, POINT_QUANTITIES, OutputSection
 from suture_fem.support import compat
 
 #: Regions reported separately (the suture is thread + cones).
 REPORT_REGIONS = REGION_TAGS
 
 #: The output options that need the stress and strain at the quadrature points.
-POINT_OUTPUTS = frozenset({"seqv", "eptoeqv"})
+POINT_OUTPUTS = frozenset(POINT_QUANTITIES)
 
 
 def von_mises(s: np.ndarray) -> np.ndarray:
@@ -190,6 +190,12 @@ class Quantity:
     """
 
     option: ClassVar[str | None] = None
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """A quantity's option is one of the names the scene declares (``scene.schema.OUTPUT_QUANTITIES``)."""
+        super().__init_subclass__(**kwargs)
+        if cls.option is not None and cls.option not in OUTPUT_QUANTITIES:
+            raise TypeError(f"{cls.__name__}.option = {cls.option!r} is not declared in scene.schema.OUTPUT_QUANTITIES")
 
     def __init__(self, setup: Setup):
         self.setup = setup

@@ -20,16 +20,18 @@ from typing import Any
 
 import numpy as np
 
-from suture_fem.geometry.regions import MM, TISSUE_REGIONS
+from suture_fem.geometry.regions import MM, TISSUE_REGIONS, WHOLE_TISSUE
 from suture_fem.outputs.base import REPORT_REGIONS, Maximum, Quantity, Setup, State
 from suture_fem.outputs.disc import CellField, DiscMax, DiscPoints, coarse_starts, max_disc_average, top_points
+from suture_fem.outputs.eptoeqv import Eptoeqv
+from suture_fem.outputs.seqv import Seqv
 from suture_fem.scene.schema import OutputSection
 from suture_fem.support import compat
 
 #: The averaged fields: (results.json name, the ``output.quantities`` option, values at the points of a region).
 FIELDS = (
-    ("seqv_cd_pa", "seqv", lambda state, region: state.von_mises(region)),
-    ("eptoeqv_cd", "eptoeqv", lambda state, region: state.hencky(region)[0]),
+    ("seqv_cd_pa", Seqv.option, lambda state, region: state.von_mises(region)),
+    ("eptoeqv_cd", Eptoeqv.option, lambda state, region: state.hencky(region)[0]),
 )
 
 
@@ -138,8 +140,8 @@ class CriticalDistance(Quantity):
         if self.radius <= 0 or points is None:
             return
         layers_too = setup.output.critical_distance_layers  # each layer's own search: about 60 % of the cost
-        for region in (*TISSUE_REGIONS, "tissue") if layers_too else ("tissue",):
-            layers = TISSUE_REGIONS if region == "tissue" else (region,)
+        for region in (*TISSUE_REGIONS, WHOLE_TISSUE) if layers_too else (WHOLE_TISSUE,):
+            layers = TISSUE_REGIONS if region == WHOLE_TISSUE else (region,)
             cells = np.concatenate([points.cells[t] for r in layers for t in REPORT_REGIONS[r] if len(points.cells[t])]
                                    or [np.zeros(0, dtype=np.int32)])
             mine = cells < owned
@@ -160,7 +162,7 @@ class CriticalDistance(Quantity):
                       coarse_starts(field, *self.parts[region][5], self.radius))
             known: dict = {}  # the two searches share the averages they both compute
             found = max_disc_average(field, starts, self.radius, known=known)
-            if self.near_cones is not None and region == "tissue":
+            if self.near_cones is not None and region == WHOLE_TISSUE:
                 near = found
                 if found.at is None or not self.near_cones(np.array([found.at]))[0]:
                     near = max_disc_average(field, starts, self.radius, self.near_cones, known)
@@ -185,4 +187,4 @@ class CriticalDistance(Quantity):
 
     def in_tissue(self, state: State) -> dict[str, Any]:
         """The largest disc averages over the whole tissue (discs may cross the layers' interfaces)."""
-        return self._measure(state, "tissue")
+        return self._measure(state, WHOLE_TISSUE)

@@ -28,12 +28,17 @@ same averages from the same array.
 from __future__ import annotations
 
 import functools
+import hashlib
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
 
+from suture_fem.outputs.disc_points import DiscPoints, Prepared
 from suture_fem.support import compat
+
+__all__ = ["CellField", "DiscMax", "DiscPoints", "coarse_starts", "disc_averages", "disc_rule",
+           "max_disc_average", "spread", "top_points"]
 
 #: Points of the disc rule: Gauss-Legendre points in the radius, equally spaced angles.
 RADIAL_POINTS, ANGULAR_POINTS = 6, 24
@@ -99,97 +104,36 @@ class CellField:
         self.locate = locate if locate is not None else compat.cell_locator(mesh, self.cells)
 
     def at(self, points: np.ndarray) -> np.ndarray:
-        """The field at points (m, 2); -inf where no cell of the field (on any rank) holds the point (collective)."""
-        located = self.locate(np.column_stack([points, np.zeros(len(points))])) if len(points) else None
-        return self._values(points, located)
+        """The field at points (m, 2); -inf where no cell of the field (on any rank) holds the point (collective).
 
-    def at_discs(self, centres: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-        """:meth:`at` of ``[centres, centre 0 + offsets, centre 1 + offsets, ...]``, the located points kept per centre.
-
-        With ``discs`` (:class:`DiscPoints`), a centre's points are located once and reused by every later
-        field of the same cells (another state): the same cells, so the same values, bit for bit.
+        With ``discs`` (:class:`DiscPoints`), the points are prepared once and kept for the next field.
         """
-        points = np.concatenate([centres, (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)])
-        if self.discs is None or not len(centres):
-            return self.at(points)
-        return self._values(points, self.discs.located(centres, offsets))
+        if self.discs is not None:
+            return self._reduce(self.discs.prepared_points(points, self.row, self.centre).values(self.coeffs))
+        located = self.locate(np.column_stack([points, np.zeros(len(points))])) if len(points) else None
+        return self._reduce(Prepared.of(points, located, self.row, self.centre).values(self.coeffs))
 
-    def _values(self, points: np.ndarray, located: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
-        """The field at points whose (point index, cell) pairs are ``located`` (collective)."""
-        local = np.full(len(points), -np.inf)
-        if located is not None:
-            idx, cells = located
-            rows = self.row[cells]
-            d = points[idx] - self.centre[rows]
-            vals = self.coeffs[rows, 0] + self.coeffs[rows, 1] * d[:, 0] + self.coeffs[rows, 2] * d[:, 1]
-            _max_into(local, idx, vals)
+    def at_discs(self, centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`at` of ``[centres, centre 0 + offsets, ...]`` and the rule's 2 pi r weights (k, m) (collective).
+
+        With ``discs`` (:class:`DiscPoints`), a centre's points are located once and a batch of centres is
+        prepared once, reused by every later field of the same cells (another state): the same cells, so
+        the same values, bit for bit.
+        """
+        if self.discs is None or not len(centres):
+            points = np.concatenate([centres, (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)])
+            w = weights[None, :] * np.abs(points[len(centres):, 0]).reshape(len(centres), -1)
+            return self.at(points), w
+        prepared, w = self.discs.prepared_discs(centres, offsets, weights, self.row, self.centre)
+        return self._reduce(prepared.values(self.coeffs)), w
+
+    def _reduce(self, local: np.ndarray) -> np.ndarray:
+        """The largest of every rank's values (collective)."""
         out = np.empty_like(local)
         from mpi4py import MPI
 
         self.comm.Allreduce(local, out, op=MPI.MAX)
         return out
-
-
-class DiscPoints:
-    """Where the points of the disc rule around each centre fall among a region's cells, kept per centre.
-
-    It also keeps what every field fitted on the region's cells shares: the cells' centres and rows and
-    the least-squares system of the fit (:class:`CellField`).
-
-    They depend on the mesh, the region's cells and the disc only, not on the field: the searches at
-    later states (other reported forces, other answers of a Model) ask for many of the same centres again
-    (grids fixed in space), and find them here instead of locating their points again. Each centre keeps
-    its centre's cells and its rule points' indices and cells (under 1 kB); at most ``limit`` centres
-    are kept (beyond it, new ones are located every time). No communication: each rank keeps its own cells.
-    """
-
-    def __init__(self, locate: Any, limit: int = 50_000):
-        self.locate, self.limit = locate, limit
-        self.kept: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        #: the fields' cell centres, rows and least-squares system (they too depend on the points alone)
-        self.cells: tuple[np.ndarray, np.ndarray, Any] | None = None
-
-    def located(self, centres: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(point index, cell) pairs of the points of :meth:`CellField.at_discs`, sorted by point index."""
-        m = len(offsets)
-        tag = offsets.tobytes()[:16] + np.float64(np.abs(offsets).max()).tobytes()
-        keys = [tag + c.tobytes() for c in np.ascontiguousarray(centres, dtype=np.float64)]
-        missing = [i for i, key in enumerate(keys) if key not in self.kept]
-        found = dict(zip((keys[i] for i in missing), self._locate(centres[missing], offsets))) if missing else {}
-        if len(self.kept) < self.limit:
-            self.kept.update(found)
-        own, rule, hits = zip(*(found.get(key) or self.kept[key] for key in keys))
-        k = len(centres)
-        n_own, n_rule = np.fromiter(map(len, own), np.int64, k), np.fromiter(map(len, rule), np.int64, k)
-        idx = np.concatenate([np.repeat(np.arange(k), n_own),
-                              np.repeat(k + m * np.arange(k), n_rule) + np.concatenate(rule)])
-        return idx, np.concatenate(own + hits)
-
-    def _locate(self, centres: np.ndarray, offsets: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Per centre: (its centre's cells, its rule points' indices, their cells)."""
-        k, m = len(centres), len(offsets)
-        points = np.concatenate([centres, (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)])
-        idx, cells = self.locate(np.column_stack([points, np.zeros(len(points))]), keep=False)
-        own = np.searchsorted(idx, np.arange(k + 1))
-        rule = np.searchsorted(idx, k + m * np.arange(k + 1))
-        return [(cells[own[i]:own[i + 1]].copy(), (idx[rule[i]:rule[i + 1]] - (k + i * m)).astype(np.int16),
-                 cells[rule[i]:rule[i + 1]].copy()) for i in range(k)]
-
-
-def _max_into(out: np.ndarray, idx: np.ndarray, vals: np.ndarray) -> None:
-    """out[i] = max(out[i], every vals[k] with idx[k] = i), as ``np.maximum.at`` (which numpy < 1.25 runs slowly).
-
-    The locators give ``idx`` sorted (points in order, a point on a shared edge once per cell): the
-    groups of equal indices are then reduced at once; any other order falls back to ``np.maximum.at``.
-    """
-    if len(idx) == 0:
-        return
-    if np.any(idx[1:] < idx[:-1]):
-        np.maximum.at(out, idx, vals)
-        return
-    starts = np.flatnonzero(np.r_[True, idx[1:] != idx[:-1]])
-    group = idx[starts]
-    out[group] = np.maximum(out[group], np.maximum.reduceat(vals, starts))
 
 
 def _fit_system(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | tuple[None, None, None]:
@@ -236,10 +180,8 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
             out[ok] = disc_averages(field, centres[ok], radius)
         return out
     offsets, weights = disc_rule(radius)
-    points = (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
-    values = field.at_discs(np.asarray(centres, dtype=float), offsets).reshape(-1)
+    values, w = field.at_discs(np.asarray(centres, dtype=float), offsets, weights)
     inside, vals = values[: len(centres)], values[len(centres):].reshape(len(centres), -1)
-    w = weights[None, :] * np.abs(points[:, 0]).reshape(len(centres), -1)
     w = np.where(np.isfinite(vals), w, 0.0)
     total = w.sum(axis=1)
     avg = np.where(total > 0, np.sum(w * np.where(np.isfinite(vals), vals, 0.0), axis=1) / np.maximum(total, 1e-300),
@@ -326,21 +268,17 @@ def spread(candidates: np.ndarray, separation: float, count: int) -> np.ndarray:
     """The first ``count`` of candidates (k, 2), in order, each at least ``separation`` from those taken before it.
 
     A candidate closer than ``separation`` to one taken is struck out when that one is taken, so each
-    is compared once with each taken one: the choice of a loop over the candidates, at numpy's speed.
+    is compared once with each taken one, and only the candidates still open are compared: the choice
+    of a loop over the candidates, at numpy's speed.
     """
     candidates = np.asarray(candidates, dtype=float).reshape(-1, 2)
-    open_ = np.ones(len(candidates), dtype=bool)
+    r, z = candidates[:, 0].copy(), candidates[:, 1].copy()
+    open_ = np.arange(len(candidates))
     taken: list[int] = []
-    i = 0
-    while len(taken) < count:
-        left = np.flatnonzero(open_[i:])
-        if not len(left):
-            break
-        i += int(left[0])
+    while len(taken) < count and len(open_):
+        i, rest = int(open_[0]), open_[1:]
         taken.append(i)
-        near = np.hypot(candidates[i + 1:, 0] - candidates[i, 0], candidates[i + 1:, 1] - candidates[i, 1])
-        open_[i + 1:] &= near >= separation
-        i += 1
+        open_ = rest[np.hypot(r[rest] - r[i], z[rest] - z[i]) >= separation]
     return candidates[taken].reshape(-1, 2)
 
 
@@ -372,22 +310,33 @@ def coarse_starts(field: CellField, lo: np.ndarray, hi: np.ndarray, radius: floa
     nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
     values = field.at(nodes.reshape(-1, 2)).reshape(nodes.shape[:2])
     inside = np.isfinite(values)
-    w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
+    w, den = _coarse_weights(field, nodes, inside)
     avg = _window_sum(w * np.where(inside, values, 0.0), _STENCIL, 0.0)
-    den = _window_sum(w, _STENCIL, 0.0)
     avg = np.where(inside & (den > 0), avg / np.maximum(den, 1e-300), -np.inf)
     around = [(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j]
-    peak = np.all([avg >= _shifted(avg, i, j, -np.inf) for i, j in around], axis=0) & np.isfinite(avg)
+    peak = np.all([avg >= shifted for shifted in _shifts(avg, around, -np.inf)], axis=0) & np.isfinite(avg)
     idx = np.flatnonzero(peak)
     return spread(nodes.reshape(-1, 2)[idx[np.argsort(-avg.reshape(-1)[idx], kind="stable")]], radius, count)
 
 
-def _shifted(a: np.ndarray, i: int, j: int, fill: float) -> np.ndarray:
-    """``a`` at index (k + i, l + j) for every (k, l), ``fill`` beyond its edges."""
+def _coarse_weights(field: CellField, nodes: np.ndarray, inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The coarse view's 2 pi r weights at the nodes in the region and their window sums (``field.discs`` keeps 8)."""
+    key = hashlib.blake2b(nodes.tobytes() + np.packbits(inside).tobytes(), digest_size=20).digest()
+    kept = field.discs.coarse if field.discs is not None else {}
+    if key not in kept:
+        if len(kept) >= 8:
+            kept.pop(next(iter(kept)))
+        w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
+        kept[key] = (w, _window_sum(w, _STENCIL, 0.0))
+    return kept[key]
+
+
+def _shifts(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> list[np.ndarray]:
+    """``a`` at index (k + i, l + j) for every (k, l), for each offset (i, j), ``fill`` beyond its edges (views)."""
     padded = np.pad(a, 2, constant_values=fill)
-    return padded[2 + i: 2 + i + a.shape[0], 2 + j: 2 + j + a.shape[1]]
+    return [padded[2 + i: 2 + i + a.shape[0], 2 + j: 2 + j + a.shape[1]] for i, j in offsets]
 
 
 def _window_sum(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> np.ndarray:
     """The sum of ``a`` over the offsets around every index (``fill`` beyond the edges)."""
-    return np.sum([_shifted(a, i, j, fill) for i, j in offsets], axis=0)
+    return np.sum(_shifts(a, offsets, fill), axis=0)

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from suture_fem.geometry.regions import TISSUE_REGIONS
+from suture_fem.geometry.regions import TISSUE_REGIONS, WHOLE_TISSUE
 from suture_fem.outputs.base import REPORT_REGIONS, Maximum, Quantity, Setup, State
 from suture_fem.outputs.critical_distance import CriticalDistance
 from suture_fem.outputs.energy import StrainEnergy
@@ -44,7 +44,7 @@ class Outputs:
     """Builds the requested quantities once, then evaluates them for the current state."""
 
     def __init__(self, physics: Physics, output: OutputSection,
-                 quantities: tuple[str, ...] = ("usum", "seqv", "eptoeqv")):
+                 quantities: tuple[str, ...] = (Usum.option, Seqv.option, Eptoeqv.option)):
         self.physics = physics
         self.quantities = quantities
         self.setup = Setup(physics, output, quantities)
@@ -81,12 +81,12 @@ class Outputs:
             out[name] = value
             out[name + "_at_mm"] = where
             out[name + "_region"] = region
-        regions["tissue"] = _tissue(regions, overall)
+        regions[WHOLE_TISSUE] = _tissue(regions, overall)
         for quantity in self.active:  # whole-tissue maxima that are not the largest layer's
             for name, entry in quantity.in_tissue(state).items():
-                regions["tissue"][name], regions["tissue"][name + "_at_mm"] = entry
-                regions["tissue"][name + "_region"] = "tissue"
-                out[name], out[name + "_at_mm"], out[name + "_region"] = entry.value, entry.at_mm, "tissue"
+                regions[WHOLE_TISSUE][name], regions[WHOLE_TISSUE][name + "_at_mm"] = entry
+                regions[WHOLE_TISSUE][name + "_region"] = WHOLE_TISSUE
+                out[name], out[name + "_at_mm"], out[name + "_region"] = entry.value, entry.at_mm, WHOLE_TISSUE
         out["regions"] = regions
         out["where"] = dict(self.where)
         return out

@@ -15,6 +15,8 @@ import numpy as np
 
 from suture_fem.geometry.regions import MM, TISSUE_REGIONS
 from suture_fem.outputs.base import Quantity, Setup, State, global_max
+from suture_fem.outputs.eptoeqv import Eptoeqv
+from suture_fem.outputs.seqv import Seqv
 from suture_fem.scene.schema import OutputSection
 
 #: The zone around an arc: points closer to its centre than this many fillet radii.
@@ -27,7 +29,7 @@ class FilletPeak(Quantity):
     @classmethod
     def wanted(cls, quantities: tuple[str, ...]) -> bool:
         """Asked for with SEQV or EPTOEQV."""
-        return "seqv" in quantities or "eptoeqv" in quantities
+        return Seqv.option in quantities or Eptoeqv.option in quantities
 
     @staticmethod
     def describe(output: OutputSection) -> dict[str, str]:
@@ -60,8 +62,8 @@ class FilletPeak(Quantity):
             return {}
         near, xy = self.zone[region], self.setup.points.xy[region]
         out = {}
-        if "seqv" in self.setup.quantities:
+        if Seqv.option in self.setup.quantities:
             out["seqv_fillet_pa"] = global_max(state.comm, state.von_mises(region)[near], xy[near])
-        if "eptoeqv" in self.setup.quantities:
+        if Eptoeqv.option in self.setup.quantities:
             out["eptoeqv_fillet"] = global_max(state.comm, state.hencky(region)[0][near], xy[near])
         return out

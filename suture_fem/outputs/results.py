@@ -125,6 +125,33 @@ class Results(Mapping):
     error: str | None = None
 
     @classmethod
+    def read(cls, path: str | Path) -> Results:
+        """The Results a run wrote (``results.json``), typed again: ``Results.read(out / "results.json").at_forces``."""
+        import json
+
+        return cls.from_dict(json.loads(Path(path).read_text()))
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Results:
+        """From the JSON form (:meth:`to_dict`; ``results.json``): ``Results.from_dict(d).to_dict() == d``."""
+        rest = dict(data)
+        records = rest.pop("at_forces", [])
+        latest: dict[str, Any] = {}
+        for record in records:
+            latest.update({k: v for k, v in record.items() if k != "force_n"})
+        for name in latest:  # the last report's entries, repeated at top level
+            rest.pop(name, None)
+        names = [f.name for f in fields(SolverRecord)]
+        solver = SolverRecord(**{n: rest.pop(n) for n in names}) if all(n in rest for n in names) else None
+        diagnosis = rest.pop("diagnosis", None)
+        return cls(effects=rest.pop("effects"), scene=rest.pop("scene"), status=rest.pop("status"),
+                   force_displacement=rest.pop("force_displacement"), time_history=rest.pop("time_history", None),
+                   records=list(records), latest=latest, force_reached_n=rest.pop("force_reached_n", None),
+                   wall_time_s=rest.pop("wall_time_s", None), timings_s=rest.pop("timings_s", None), solver=solver,
+                   diagnosis=Diagnosis(**diagnosis) if diagnosis is not None else None, error=rest.pop("error", None),
+                   run=rest)
+
+    @classmethod
     def start(cls, scene: Scene, physics: Physics, comm: Any) -> Results:
         """A running run's results: its metadata, nothing solved yet (collective: counts the cells)."""
         run = {

@@ -1,5 +1,13 @@
 """Hyperelastic materials, each a frozen dataclass with its strain energy written once in UFL.
 
+A material law is one class that provides what :class:`MaterialLaw` (a typing Protocol) names: its
+scene declaration (``declaration``: its name and parameters, from :data:`suture_fem.scene.laws.LAWS`),
+how it is built from its parameters (``of``, ``constants``), its energy, its limits (the quantities
+that must stay > 0, watched by the domain guard) and how much of a limit a state uses; a tissue law
+(:class:`TissueLaw`) also splits its energy into an isochoric and a volumetric part (the mixed form).
+:data:`LAW_CLASSES` finds the class of a scene's ``model``; :func:`register` adds a law from outside
+the package in one place (its class, which carries its declaration).
+
 Energies take the 3x3 deformation gradient F (any kinematics); stresses come from ``ufl.diff``,
 never by hand. The tissue forms are ANSYS's (paper Table 3, MODEL.md): the coefficient 1/d_k
 multiplies (J - 1)^(2k), so the initial bulk modulus is K0 = 2/d_1.
@@ -17,12 +25,15 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
+from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import dolfinx.fem
 import ufl
 from petsc4py import PETSc
 
+from suture_fem.geometry.regions import WHOLE_TISSUE
+from suture_fem.scene import laws
+from suture_fem.scene.laws import LAWS, LawDeclaration
 from suture_fem.scene.model import MaterialSpec
 from suture_fem.support.errors import SceneError
 
@@ -39,6 +50,72 @@ class Limit(Enum):
     def label(self) -> str:
         """The quantity as written in logs and diagnoses."""
         return self.value
+
+
+@runtime_checkable
+class MaterialLaw(Protocol):
+    """What a material law provides; a scene names it by ``declaration.name``.
+
+    ``of(values, scale)`` builds it from its parameters by name (floats or dolfinx Constants; ``scale``:
+    ``materials.tissue_scale`` for a tissue, 1 otherwise); ``constants(params)`` is the parameters it
+    keeps as Constants in the forms, with their values (what ``model.set`` can change later).
+    """
+
+    declaration: ClassVar[LawDeclaration]
+
+    @classmethod
+    def of(cls, values: Mapping[str, Any], scale: Any = 1.0) -> MaterialLaw:
+        """The law with these parameter values (checked: SceneError for values it cannot take)."""
+
+    @classmethod
+    def constants(cls, params: Mapping[str, Any]) -> dict[str, float]:
+        """The parameters the forms keep as Constants, by name, with their values as floats."""
+
+    def energy(self, F: Any) -> Any:
+        """The strain energy density W(F) (UFL) of the 3x3 deformation gradient."""
+
+    def limits(self, F: Any) -> dict[Limit, Any]:
+        """UFL expressions that must stay > 0 for the energy to be defined, by quantity."""
+
+    def usage(self, limit: Limit, margin: float) -> float | None:
+        """The fraction of a physical limit used where its margin is ``margin`` (None: no such fraction)."""
+
+    @property
+    def shear_modulus(self) -> float:
+        """Initial shear modulus (Pa), at the current values."""
+
+    @property
+    def bulk_modulus(self) -> float:
+        """Initial bulk modulus (Pa), at the current values."""
+
+
+@runtime_checkable
+class TissueLaw(MaterialLaw, Protocol):
+    """A law of the tissue layers: the energy split for the mixed (u, p) form, scaled by ``tissue_scale``."""
+
+    def isochoric(self, F: Any) -> Any:
+        """The isochoric part of W (a function of I1bar)."""
+
+    def volumetric(self, J: Any) -> Any:
+        """The volumetric part of W (a function of J)."""
+
+    def bulk_modulus_form(self) -> Any:
+        """The initial bulk modulus as it enters a form (UFL of the Constants, or a float)."""
+
+
+class _Law:
+    """What the built-in laws share: built from their declared parameters, no limit fraction but their own."""
+
+    declaration: ClassVar[LawDeclaration]
+
+    @classmethod
+    def constants(cls, params: Mapping[str, Any]) -> dict[str, float]:
+        """Every declared parameter the table gives, as a float."""
+        return {name: float(params[name]) for name in cls.declaration.parameters if name in params}
+
+    def usage(self, limit: Limit, margin: float) -> float | None:
+        """None: no physical limit of this law has a fraction used."""
+        return None
 
 
 def number(value: Any) -> float:
@@ -58,7 +135,7 @@ def invariants(F: Any) -> tuple[Any, Any]:
 
 
 @dataclass(frozen=True)
-class Yeoh:
+class Yeoh(_Law):
     """Compressible Yeoh solid (ANSYS form).
 
     W = sum_i c_i0 (I1bar - 3)^i + sum_k (1/d_k) (J - 1)^(2k)
@@ -72,6 +149,19 @@ class Yeoh:
     c: tuple[Any, ...]
     inv_d: tuple[Any, ...]
     scale: Any = 1.0
+    declaration: ClassVar[LawDeclaration] = LAWS["yeoh"]
+
+    @classmethod
+    def of(cls, values: Mapping[str, Any], scale: Any = 1.0) -> Yeoh:
+        """From c10..c60 and inv_d1..inv_d6 (missing ones are zero; trailing zeros dropped)."""
+        return cls(c=_series(values, "c{}0"), inv_d=_series(values, "inv_d{}"), scale=scale)
+
+    @classmethod
+    def constants(cls, params: Mapping[str, Any]) -> dict[str, float]:
+        """Each series' coefficients up to its last nonzero one (a zero inside a series too)."""
+        law = cls.of(params)
+        return {**{f"c{i + 1}0": v for i, v in enumerate(law.c)},
+                **{f"inv_d{k + 1}": v for k, v in enumerate(law.inv_d)}}
 
     def __post_init__(self) -> None:
         if not self.c or number(self.c[0]) <= 0:
@@ -115,7 +205,7 @@ class Yeoh:
 
 
 @dataclass(frozen=True)
-class Gent:
+class Gent(_Law):
     """Compressible Gent solid (ANSYS form).
 
     W = -(mu Jm / 2) ln(1 - (I1bar - 3) / Jm) + (1/d) ((J^2 - 1) / 2 - ln J)
@@ -127,6 +217,16 @@ class Gent:
     jm: Any
     inv_d: Any
     scale: Any = 1.0
+    declaration: ClassVar[LawDeclaration] = LAWS["gent"]
+
+    @classmethod
+    def of(cls, values: Mapping[str, Any], scale: Any = 1.0) -> Gent:
+        """From mu, jm and inv_d."""
+        return cls(mu=values["mu"], jm=values["jm"], inv_d=values["inv_d"], scale=scale)
+
+    def usage(self, limit: Limit, margin: float) -> float | None:
+        """(I1bar - 3) / Jm for the locking limit's margin Jm - (I1bar - 3); None for J."""
+        return 1.0 - margin / number(self.jm) if limit is Limit.GENT_MARGIN else None
 
     def __post_init__(self) -> None:
         mu, jm, inv_d = number(self.mu), number(self.jm), number(self.inv_d)
@@ -168,7 +268,7 @@ class Gent:
 
 
 @dataclass(frozen=True)
-class StVenantKirchhoff:
+class StVenantKirchhoff(_Law):
     """Linear isotropic elasticity in its finite-rotation form.
 
     W = lambda/2 (tr E)^2 + mu E:E,  E = (F^T F - I) / 2
@@ -176,6 +276,12 @@ class StVenantKirchhoff:
 
     young: Any
     poisson: Any
+    declaration: ClassVar[LawDeclaration] = LAWS["svk"]
+
+    @classmethod
+    def of(cls, values: Mapping[str, Any], scale: Any = 1.0) -> StVenantKirchhoff:
+        """From young and poisson (the suture: no scale)."""
+        return cls(young=values["young"], poisson=values["poisson"])
 
     def __post_init__(self) -> None:
         young, poisson = number(self.young), number(self.poisson)
@@ -209,51 +315,67 @@ class StVenantKirchhoff:
         return {Limit.J: ufl.det(F)}
 
 
-Material = Yeoh | Gent | StVenantKirchhoff
+Material = MaterialLaw
+
+#: The class of each law a scene may name, by name.
+LAW_CLASSES: dict[str, type[MaterialLaw]] = {cls.declaration.name: cls for cls in (Yeoh, Gent, StVenantKirchhoff)}
 
 
-def from_params(spec: MaterialSpec) -> Material:
-    """A material from a validated ``materials.<region>`` table."""
-    model, params = spec.model, spec.params
-    if model == "yeoh":
-        c = _series(params, "c{}0")
-        inv_d = _series(params, "inv_d{}")
-        return Yeoh(c=c, inv_d=inv_d)
-    if model == "gent":
-        return Gent(mu=params["mu"], jm=params["jm"], inv_d=params["inv_d"])
-    if model == "svk":
-        return StVenantKirchhoff(young=params["young"], poisson=params["poisson"])
-    raise SceneError(f"unknown material model {model!r}")
+def register(cls: type[MaterialLaw]) -> type[MaterialLaw]:
+    """Add a material law (a class with what :class:`MaterialLaw` names, its ``declaration`` included).
+
+    Its name and parameters become valid in a scene's ``[materials.<region>]`` table and the scene's
+    forms use its energy. Usable as a class decorator; :func:`unregister` removes it again.
+    """
+    missing = [name for name in ("declaration", "of", "constants", "energy", "limits", "usage", "shear_modulus",
+                                 "bulk_modulus") if not hasattr(cls, name)]
+    if cls.declaration.regions == WHOLE_TISSUE:
+        missing += [name for name in ("isochoric", "volumetric", "bulk_modulus_form") if not hasattr(cls, name)]
+    if missing:
+        raise TypeError(f"material law {cls.__name__} lacks {', '.join(missing)}")
+    laws.declare(cls.declaration)
+    LAW_CLASSES[cls.declaration.name] = cls
+    return cls
 
 
-def with_constants(spec: MaterialSpec, mesh: Any, scale: Any = 1.0) -> tuple[Material, dict[str, Any]]:
+def unregister(name: str) -> None:
+    """Remove a registered law by name (the built-in ones stay)."""
+    if name not in ("yeoh", "gent", "svk"):
+        LAW_CLASSES.pop(name, None)
+        laws.withdraw(name)
+
+
+def law_class(model: str) -> type[MaterialLaw]:
+    """The class of a law by its scene name (SceneError for an unknown one)."""
+    if model not in LAW_CLASSES:
+        raise SceneError(f"unknown material model {model!r}")
+    return LAW_CLASSES[model]
+
+
+def from_params(spec: MaterialSpec) -> MaterialLaw:
+    """A material from a validated ``materials.<region>`` table (parameters as floats)."""
+    return law_class(spec.model).of({k: float(v) for k, v in spec.params.as_dict().items()})
+
+
+def with_constants(spec: MaterialSpec, mesh: Any, scale: Any = 1.0) -> tuple[MaterialLaw, dict[str, Any]]:
     """A region's material whose parameters are dolfinx Constants, and those Constants by parameter name.
 
-    The names are the scene's (``c10``, ``inv_d1``, ``mu``, ``jm``, ``young``, ...); a Yeoh series has
-    a Constant for each coefficient up to its last nonzero one. ``scale`` (a Constant, tissues only)
-    multiplies the tissue's constants (:class:`Yeoh`, :class:`Gent`).
+    The names are the scene's (``c10``, ``inv_d1``, ``mu``, ``jm``, ``young``, ...): the law's
+    ``constants`` (a Yeoh series has a Constant for each coefficient up to its last nonzero one).
+    ``scale`` (a Constant, tissues only) multiplies the tissue's constants (:class:`Yeoh`, :class:`Gent`).
     """
-    floats = from_params(spec)
-    consts: dict[str, Any] = {}
-
-    def const(name: str, value: float) -> Any:
-        consts[name] = dolfinx.fem.Constant(mesh, PETSc.ScalarType(value))
-        return consts[name]
-
-    if isinstance(floats, Yeoh):
-        c = tuple(const(f"c{i + 1}0", v) for i, v in enumerate(floats.c))
-        inv_d = tuple(const(f"inv_d{k + 1}", v) for k, v in enumerate(floats.inv_d))
-        return Yeoh(c=c, inv_d=inv_d, scale=scale), consts
-    if isinstance(floats, Gent):
-        return Gent(mu=const("mu", floats.mu), jm=const("jm", floats.jm), inv_d=const("inv_d", floats.inv_d),
-                    scale=scale), consts
-    return StVenantKirchhoff(young=const("young", floats.young), poisson=const("poisson", floats.poisson)), consts
+    cls = law_class(spec.model)
+    cls.of(spec.params.as_dict())  # the law's own checks, on the floats
+    consts = {name: dolfinx.fem.Constant(mesh, PETSc.ScalarType(value))
+              for name, value in cls.constants(spec.params.as_dict()).items()}
+    return cls.of(consts, scale), consts
 
 
-def _series(params: Mapping[str, Any], pattern: str) -> tuple[float, ...]:
-    """Coefficients 1..6 of a series (missing ones are zero), trailing zeros dropped."""
-    values = [float(params.get(pattern.format(i), 0.0)) for i in range(1, 7)]
-    while values and values[-1] == 0.0:
+def _series(params: Mapping[str, Any], pattern: str) -> tuple[Any, ...]:
+    """Coefficients 1..6 of a series (floats or Constants; missing ones are 0.0), trailing zeros dropped."""
+    values = [params.get(pattern.format(i), 0.0) for i in range(1, 7)]
+    values = [float(v) if isinstance(v, (int, float)) else v for v in values]
+    while values and number(values[-1]) == 0.0:
         values.pop()
     return tuple(values)
 

@@ -23,8 +23,9 @@ from typing import Any
 
 from suture_fem.geometry.regions import REGIONS
 from suture_fem.scene.balance import check_steps, check_tolerances
+from suture_fem.scene.laws import LAWS, models_for
 from suture_fem.scene.model import Scene
-from suture_fem.scene.schema import MODEL_PARAMETERS, PETSC_OPTIONS, RULES, TISSUE_MODELS, Rule, default_values
+from suture_fem.scene.schema import PETSC_OPTIONS, RULES, Rule, default_values
 from suture_fem.support.errors import SceneError, shown
 
 log = logging.getLogger("suture_fem")
@@ -189,9 +190,9 @@ def _material_rule(key: str, scene: dict[str, Any]) -> Rule | None:
     if region not in REGIONS:
         raise SceneError(f"scene key {key}: unknown region {region!r} (one of {', '.join(REGIONS)})")
     if name == "model":
-        return Rule("str", choices=("svk",) if region == "suture" else TISSUE_MODELS)
+        return Rule("str", choices=models_for(region))
     model = scene["materials"][region].get("model")
-    params = MODEL_PARAMETERS.get(model, {})
+    params = LAWS[model].parameters if model in LAWS else {}
     if name not in params:
         allowed = ", ".join(["model", *params]) or "model"
         raise SceneError(f"scene key {key}: not a parameter of the {model!r} model (allowed: {allowed})")
@@ -261,16 +262,9 @@ def validate(scene: dict[str, Any]) -> dict[str, Any]:
 
 
 def _check_material(region: str, params: dict[str, Any]) -> None:
-    model = params.get("model")
-    if model == "yeoh":
-        if not any(k.startswith("c") for k in params):
-            raise SceneError(f"scene key materials.{region}: a Yeoh model needs at least c10")
-        if params.get("c10", 0.0) <= 0.0:
-            raise SceneError(f"scene key materials.{region}.c10 must be > 0 (initial shear modulus 2*c10)")
-    required = {"gent": ("mu", "jm", "inv_d"), "svk": ("young", "poisson")}.get(model, ())
-    for name in required:
-        if name not in params:
-            raise SceneError(f"scene key materials.{region}.{name} is required by the {model!r} model")
+    law = LAWS.get(params.get("model"))
+    if law is not None:
+        law.check_table(region, params)
 
 
 def parse_scene(source: str | Path | None = "paper", overrides: list[str] | None = None) -> Scene:

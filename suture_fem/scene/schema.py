@@ -27,8 +27,6 @@ from suture_fem.scene.rules import (  # noqa: F401  (re-exported: the schema's n
     section,
 )
 
-_MODULUS = _pos(1e13)
-_VOLUMETRIC = _pos(1e15, lo_open=False)  # 1/d may be 0 (incompressible limit handled by "mixed")
 MM, N, PA, S = "mm", "N", "Pa", "s"
 
 
@@ -100,6 +98,15 @@ class SolverSection(_Section):
     gent_limit_fraction: float = key(Rule("float", lo=0.0, hi=1.0, lo_open=True))
 
 
+#: The optional outputs a scene may ask for in ``output.quantities``, in the order they are computed:
+#: declared here once (the scene checks them before anything is imported). Each is the ``option`` of
+#: one Quantity class in ``outputs/`` (checked when the class is defined, and by a test), and
+#: results.json's ``effects.outputs`` lists those left out.
+OUTPUT_QUANTITIES: tuple[str, ...] = ("usum", "seqv", "eptoeqv", "interface")
+#: Those computed from the stress and strain at the quadrature points (one compiled expression per material).
+POINT_QUANTITIES: tuple[str, ...] = ("seqv", "eptoeqv")
+
+
 @section("output")
 class OutputSection(_Section):
     """``[output]``: which quantities, fields and measures are computed."""
@@ -108,7 +115,7 @@ class OutputSection(_Section):
     rim_exclusion_mm: float = key(_pos(100.0, lo_open=False), MM)
     critical_distance_mm: float = key(_pos(10.0, lo_open=False), MM)
     critical_distance_layers: bool = key(Rule("bool"))
-    quantities: tuple[str, ...] = key(Rule("strs", choices=("usum", "seqv", "eptoeqv", "interface")))
+    quantities: tuple[str, ...] = key(Rule("strs", choices=OUTPUT_QUANTITIES))
 
 
 #: The thread interfaces whose tissue side has its own nodes along the bare thread (the split track).
@@ -157,7 +164,7 @@ class EffectsSection(_Section):
 
 from suture_fem.scene.strength import StrengthSection  # noqa: E402  (it builds on the rules above)
 
-SECTIONS: dict[str, type] = {  # the sections with fixed keys, by name (``materials``: per region, MODEL_PARAMETERS)
+SECTIONS: dict[str, type] = {  # the sections with fixed keys, by name (``materials``: per region, scene/laws.py)
     "geometry": GeometrySection,
     "mesh": MeshSection,
     "loading": LoadingSection,
@@ -220,15 +227,4 @@ PETSC_OPTIONS: dict[str, Rule] = {
     "mat_mumps_cntl_7": Rule("float", lo=0.0, hi=1.0),  # block low-rank dropping
 }
 
-TISSUE_MODELS = ("yeoh", "gent")
-
-#: Parameters of each material model (a Yeoh model takes c10..c60 and inv_d1..inv_d6), all in Pa
-#: except Gent's dimensionless jm and SVK's poisson.
-MODEL_PARAMETERS: dict[str, dict[str, Rule]] = {
-    "yeoh": {
-        **{f"c{i}0": Rule("float", lo=-1e12, hi=1e12) for i in range(1, 7)},
-        **{f"inv_d{k}": _VOLUMETRIC for k in range(1, 7)},
-    },
-    "gent": {"mu": _MODULUS, "jm": _pos(1e6), "inv_d": _VOLUMETRIC},
-    "svk": {"young": _MODULUS, "poisson": Rule("float", lo=-1.0, hi=0.5, lo_open=True, hi_open=True)},
-}
+#: The material laws a ``[materials.<region>]`` table may name, and their parameters: ``scene/laws.py`` (``LAWS``).

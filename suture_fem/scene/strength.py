@@ -12,11 +12,12 @@ from __future__ import annotations
 
 from dataclasses import fields
 
+from suture_fem.geometry.regions import TISSUE_REGIONS
 from suture_fem.scene.schema import PA, N, Rule, _pos, _Section, key, section
 from suture_fem.support.errors import SceneError
 
 #: The layers that can tear (the suture's own failure is the thread's breaking force).
-LAYERS = ("hypodermis", "dermis", "epidermis")
+LAYERS = TISSUE_REGIONS
 #: A failure strain below this lies in soft tissue's toe region, where no tissue tears: refused.
 MIN_FAILURE_STRAIN = 0.05
 _STRAIN = Rule("float", lo=MIN_FAILURE_STRAIN, hi=10.0)

@@ -21,7 +21,7 @@ from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.regions import REGION_OF_TAG
 from suture_fem.physics.forms import quadrature_degree
-from suture_fem.physics.materials import Limit, Material, number
+from suture_fem.physics.materials import Limit, Material
 from suture_fem.physics.problem import Physics
 from suture_fem.support import compat
 
@@ -127,10 +127,8 @@ class DomainGuard:
         """Where (I1bar - 3) / Jm >= fraction in a Gent region (collective), else None."""
 
         def used(region: str, limit: Limit, value: float) -> float | None:
-            if limit is not Limit.GENT_MARGIN:
-                return None
-            usage = 1.0 - value / number(self.materials[region].jm)
-            return usage if usage >= fraction else None
+            usage = self.materials[region].usage(limit, value)  # the law's own: (I1bar - 3) / Jm for Gent
+            return usage if usage is not None and usage >= fraction else None
 
         found = self._worst(used)
         if found is None:

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from suture_fem.geometry import regions
+from suture_fem.geometry.regions import WHOLE_TISSUE
 from suture_fem.plots import _save, field_grid, file_figure
 
 
@@ -34,7 +35,7 @@ def plot_cone_stress(grid: Any, record: Mapping[str, Any], cone: Mapping[str, An
     from matplotlib.collections import PolyCollection
     from matplotlib.colors import LogNorm
 
-    tissue = record["regions"]["tissue"]
+    tissue = record["regions"][WHOLE_TISSUE]
     base = cone["base_z_mm"]
     lo, hi = min(base, cone["apex_z_mm"]), max(base, cone["apex_z_mm"])
     rim = _focus(tissue)
@@ -109,7 +110,7 @@ def cone_stress_picture(scene: Any, png: str | Path, comm: Any) -> Path | None:
     if comm.rank != 0:
         return None
     geometry = Geometry.from_section(scene.geometry)
-    tissue = record["regions"]["tissue"]
+    tissue = record["regions"][WHOLE_TISSUE]
     at = _focus(tissue)
     cone = min(geometry.cones, key=lambda c: abs(0.5 * (c.base_z + c.apex_z) - at[1]))
     arcs = [seg for kind, seg in cone.outline if kind == "arc"]

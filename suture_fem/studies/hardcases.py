@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from suture_fem.geometry.regions import WHOLE_TISSUE
 from suture_fem.support.errors import StopCause
 
 #: Causes a stopped run may name (results.json's ``diagnosis.cause``, a plain string equal to its member).
@@ -148,7 +149,7 @@ def classify(results: dict[str, Any] | None, exit_code: int | None) -> dict[str,
         "load_steps": results.get("load_steps"),
         "unknowns": results.get("unknowns"),
         "usum_mm": results.get("usum_mm"),
-        "tissue_seqv_pa": (results.get("regions") or {}).get("tissue", {}).get("seqv_pa"),
+        "tissue_seqv_pa": (results.get("regions") or {}).get(WHOLE_TISSUE, {}).get("seqv_pa"),
         "eptoeqv": results.get("eptoeqv"),
         "force_balance_rel": results.get("force_balance_rel"),
         "wall_time_s": results.get("wall_time_s"),

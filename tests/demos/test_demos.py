@@ -9,7 +9,6 @@ conclusions in their last code cells.
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import sys
@@ -49,6 +48,30 @@ def test_kernel_runs_this_environment():
     assert Path(spec.argv[0]).absolute() == Path(sys.executable).absolute()
 
 
+def test_demos_use_only_the_public_api():
+    """``import suture_fem as sf`` and the names of its ``__all__`` (docs/api.md): no deep module path, no helper."""
+    import ast
+
+    import suture_fem
+
+    public, found = set(suture_fem.__all__), []
+    for path in DEMOS:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                found += [f"{path.name}:{node.lineno}: import {a.name}" for a in node.names
+                          if a.name.startswith("suture_fem.") or (DEMOS_DIR / f"{a.name.split('.')[0]}.py").exists()]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                top = node.module.split(".")[0]
+                deep = node.module.startswith("suture_fem.") or (top == "suture_fem" and not all(
+                    a.name in public for a in node.names))
+                if deep or (DEMOS_DIR / f"{top}.py").exists():
+                    found.append(f"{path.name}:{node.lineno}: from {node.module} import ...")
+            elif (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "sf"
+                  and node.attr not in public):
+                found.append(f"{path.name}:{node.lineno}: sf.{node.attr}")
+    assert found == []
+
+
 #: The demos that take longest as notebooks (20-30 s each): in the long tests (benchmarks/long_tests.py).
 LONG_DEMOS = ("cone_design", "paper_reproduction", "hard_cases", "effects")
 
@@ -64,6 +87,5 @@ def test_demo_runs_as_notebook(path: Path, tmp_path: Path, monkeypatch: pytest.M
     for key, value in mpi_env().items():  # the kernel inherits this process's environment
         monkeypatch.setenv(key, value)
     monkeypatch.setenv("CI", "1")
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [str(DEMOS_DIR), os.environ.get("PYTHONPATH")])))
     client = NotebookClient(nb, timeout=1800, kernel_name=KERNEL, resources={"metadata": {"path": str(tmp_path)}})
     client.execute()

@@ -5,12 +5,13 @@ One cone, degree 1, the coarsest mesh (the forms of tests/integration/test_run.p
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
 import pytest
 
-from suture_fem import Model, Scene, SceneError
+from suture_fem import Model, Results, Scene, SceneError
 from suture_fem.pipeline import run_scene
 
 BASE = Scene.builtin("paper").with_values({"mesh.degree": 1, "mesh.refinement": 0, "geometry.cones": 1,
@@ -50,6 +51,8 @@ def first(model):
 
 def test_a_model_solves_as_run_scene_does_and_keeps_its_state(model, first, tmp_path):
     close(first, run_scene(BASE, tmp_path, model.comm).to_dict())
+    written = json.loads((tmp_path / "results.json").read_text())
+    assert Results.read(tmp_path / "results.json").to_dict() == written  # read back, typed again
     assert first["status"] == "converged" and [r["force_n"] for r in first["at_forces"]] == [0.5, 1.0]
     assert model.results.usum_mm == first["usum_mm"] and model.results.at_forces[-1].force_n == 1.0
     # the solved state stays reachable: USUM is the largest nodal |u| (mm)

@@ -241,6 +241,15 @@ def test_a_bad_jobs_value_is_one_line_exit_2(tmp_path, capsys, value):
     assert not (tmp_path / "out").exists()
 
 
+def test_cones_outside_the_paper_s_are_one_line_exit_2(tmp_path, capsys):
+    from suture_fem.cli import main
+
+    assert main(["reproduce", "--out", str(tmp_path / "out"), "--cones", "1", "5", "--calibrate", "none"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
+    assert len(errors) == 1 and "--cones 1 5" in errors[0] and "1, 2, 3, 4" in errors[0], errors
+    assert not (tmp_path / "out").exists()
+
+
 def test_nice_levels_have_a_round_step_and_cover_the_range():
     from suture_fem.plots import nice_levels
 

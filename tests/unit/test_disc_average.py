@@ -171,7 +171,7 @@ def test_the_distance_to_a_cone_surface_follows_its_lines_and_its_arcs():
 
 def test_the_largest_value_per_point_equals_numpy_s_maximum_at():
     # CellField.at takes the larger value where a point lies in two cells (an edge), sorted or not
-    from suture_fem.outputs.disc import _max_into
+    from suture_fem.outputs.disc_points import _max_into
 
     rng = np.random.default_rng(0)
     for trial in range(50):
@@ -182,3 +182,17 @@ def test_the_largest_value_per_point_equals_numpy_s_maximum_at():
         np.maximum.at(expected, idx, vals)
         _max_into(got, idx, vals)
         assert np.array_equal(got, expected)
+
+
+def test_spread_takes_candidates_in_order_each_far_enough_from_those_taken_before():
+    from suture_fem.outputs.disc import spread
+
+    rng = np.random.default_rng(3)
+    for trial in range(40):
+        candidates = np.round(rng.normal(size=(int(rng.integers(0, 400)), 2)), 1 if trial % 2 else 6)
+        separation, count = float(rng.uniform(0.05, 1.0)), int(rng.integers(1, 30))
+        expected = []  # the definition, one candidate at a time
+        for c in candidates:
+            if len(expected) < count and all(np.hypot(*(c - t)) >= separation for t in expected):
+                expected.append(c)
+        assert np.array_equal(spread(candidates, separation, count), np.array(expected).reshape(-1, 2))

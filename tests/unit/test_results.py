@@ -85,3 +85,19 @@ def test_the_typed_view_reads_the_same_values_as_the_json_form():
     assert (res.usum_mm, res.seqv_pa, res.eptoeqv) == (2.0, 3.0, 0.4) and res["usum_mm"] == res.usum_mm
     assert res.force_displacement == res.to_dict()["force_displacement"] == [[0.0, 0.0], [1.0, 1.9]]
     assert res.regions == record["regions"]
+
+
+def test_results_json_reads_back_as_the_same_typed_results(tmp_path):
+    res = running()
+    res.step(0.5, 0.1)
+    res.report(0.5, {"force_n": 0.5, "usum_mm": 1.0, "regions": {"tissue": {"seqv_pa": 3.0}}})
+    res.step(1.0, 0.3, time_s=0.02)
+    res.report(1.0, {"force_n": 1.0, "usum_mm": 2.0, "seqv_pa": 5.0, "regions": {}})
+    res.stop(SolveStopped.with_history(history(), cause="cutbacks", load_reached=1.0, attempted=1.2, detail="why"))
+    res.write(tmp_path / "results.json", MPI.COMM_SELF, 1.5, {"meshing": 0.1})
+    back = Results.read(tmp_path / "results.json")
+    assert back.to_dict() == json.loads((tmp_path / "results.json").read_text()) == res.to_dict()
+    assert back.usum_mm == 2.0 and back.seqv_pa == 5.0 and back.run == {"dofs": 12, "applied_force_n": 1.0}
+    assert [r.force_n for r in back.at_forces] == [0.5, 1.0] and back.at_forces[0].regions["tissue"]["seqv_pa"] == 3.0
+    assert back.solver == res.solver and back.diagnosis == res.diagnosis and back.status == "stopped"
+    assert back.force_displacement == [[0.0, 0.0], [0.5, 0.1], [1.0, 0.3]] and back.time_history == [[0.02, 1.0, 0.3]]

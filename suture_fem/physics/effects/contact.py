@@ -32,7 +32,7 @@ from suture_fem.scene.model import Scene
 
 def penalty_stiffness(scene: Scene, suture_size_mm: float) -> float:
     """Kappa (Pa/m): ``effects.contact_penalty`` x the hypodermis's initial bulk modulus / the suture's element size."""
-    hyp = scene.materials.of("hypodermis").params
+    hyp = scene.materials.hypodermis.params
     inv_d = hyp.get("inv_d1", hyp.get("inv_d", 0.0))
     bulk = 2.0 * float(inv_d) * scene.materials.tissue_scale
     if bulk <= 0.0:  # an incompressible hypodermis (1/d = 0, mixed): its initial shear modulus instead

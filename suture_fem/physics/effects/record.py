@@ -9,11 +9,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from suture_fem.scene.model import Scene
-from suture_fem.scene.schema import TRACK_INTERFACES
+from suture_fem.scene.schema import OUTPUT_QUANTITIES, POINT_QUANTITIES, TRACK_INTERFACES
 from suture_fem.support.errors import SceneError
 
 #: The output quantities a scene may request (``output.quantities``), in the order they are computed.
-QUANTITIES = ("usum", "seqv", "eptoeqv", "interface")
+QUANTITIES = OUTPUT_QUANTITIES
 #: Why the hold is not solved when nothing in the scene depends on the rate.
 HOLD_SKIPPED = (
     "hold skipped: no rate-dependent effect in the scene (inertia off, every material rate-independent), "
@@ -173,7 +173,7 @@ class Effects:
         left = [q for q in QUANTITIES if q not in self.quantities]
         rec: dict[str, Any] = {"computed": list(self.quantities),
                                "left_out": {q: "not in output.quantities: never computed" for q in left}}
-        if not {"seqv", "eptoeqv"} & set(self.quantities):
+        if not set(POINT_QUANTITIES) & set(self.quantities):
             rec["stress_strain_fields"] = "not compiled: neither seqv nor eptoeqv is requested"
         return rec
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from suture_fem.geometry.regions import REGIONS
+from suture_fem.geometry.regions import REGIONS, SUTURE_REGION
 from suture_fem.physics.constraints import Unknowns
 
 
@@ -22,7 +22,7 @@ def strained_regions(region_tags: dict[str, tuple[int, ...]], rigid: bool) -> li
     In the order of :data:`~suture_fem.geometry.regions.REGIONS` (tissue inside out, then the suture),
     so the terms are summed in the same order whatever order ``region_tags`` lists them in.
     """
-    return [r for r in REGIONS if r in region_tags and (r != "suture" or not rigid)]
+    return [r for r in REGIONS if r in region_tags and (r != SUTURE_REGION or not rigid)]
 
 
 def rigid_notes(unknowns: Unknowns, comm: Any) -> dict[str, int]:

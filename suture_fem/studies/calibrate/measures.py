@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from suture_fem.geometry.regions import MM
+from suture_fem.geometry.regions import MM, WHOLE_TISSUE
 from suture_fem.outputs.base import Setup, State
 from suture_fem.outputs.critical_distance import FIELDS, CriticalDistance
 from suture_fem.outputs.disc import disc_averages
@@ -52,7 +52,7 @@ class TissueMeasures:
 
     def at_centre(self, name: str, centre_mm: list[float]) -> float:
         """The disc average of the measure's field around a fixed centre (mm), at the current state (collective)."""
-        field, _ = self.cd.field(State(self.setup), "tissue", self.field_of[name])
+        field, _ = self.cd.field(State(self.setup), WHOLE_TISSUE, self.field_of[name])
         return float(disc_averages(field, np.array([centre_mm], dtype=float) * MM, self.cd.radius)[0])
 
     def derivative(self, name: str, centre_mm: list[float], key: str, change: np.ndarray) -> float:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from suture_fem.geometry.regions import WHOLE_TISSUE
 from suture_fem.scene import Scene
 from suture_fem.studies.paper import CONES, FORCES_N, PAPER, TARGET
 
@@ -38,7 +39,7 @@ def ours(results: dict[int, dict[str, Any]], cones: int, force_n: float, quantit
         return None, None
     if quantity == "usum_mm":
         return rec["usum_mm"], None
-    tissue = rec["regions"]["tissue"]
+    tissue = rec["regions"][WHOLE_TISSUE]
     alt = "seqv_outside_rim_pa" if quantity == "seqv_pa" else "eptoeqv_outside_rim"
     return tissue[quantity], tissue.get(alt)
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from suture_fem.geometry.regions import WHOLE_TISSUE
 from suture_fem.outputs.critical_distance import CONE_NAMES, CONE_ZONE_RADII
 from suture_fem.studies.paper import PAPER
 from suture_fem.studies.reproduce.stress_errors import error_bar, ratio_error_bar
@@ -45,7 +46,7 @@ ANSWERED = {"seqv": (CONE_NAMES["seqv_cd_pa"], "seqv_fillet_pa"),
 
 def _tissue_at(results: Any, force_n: float) -> dict[str, Any] | None:
     rec = next((r for r in results.get("at_forces", []) if abs(r["force_n"] - force_n) < 1e-9), None)
-    return rec["regions"]["tissue"] if rec else None
+    return rec["regions"][WHOLE_TISSUE] if rec else None
 
 
 def paper_table2() -> dict[int, dict[str, float]]:

@@ -102,6 +102,26 @@ def contact_cases() -> list[Case]:
                       "the calibrated tissue scale of docs/reproduction.md"))
     cases.append(Case("contact: coulomb, filleted rims", 7, (*MOVED, coulomb, "geometry.cone_fillet_mm=0.05",
                                                              "loading.displacement_mm=6"), "rounded cone rims"))
+    return cases + cone_cases()
+
+
+def cone_cases() -> list[Case]:
+    """Group 7, the cones' surfaces: friction 0 to 1, a large pull, soft tissue, filleted rims (the thread tied)."""
+    cones = "effects.cone_interface=\"coulomb\""
+    cases = [Case(f"cones: coulomb mu {mu:g}, 6 mm", 7, (*MOVED, cones, f"effects.friction_coefficient={mu:g}",
+                                                         "loading.displacement_mm=6"), "friction coefficient")
+             for mu in (0.0, 0.1, 0.5, 1.0)]
+    cases.append(Case("cones: coulomb, 12 mm", 7, (*MOVED, cones, "loading.displacement_mm=12"), "a large pull"))
+    cases.append(Case("cones: sliding, 12 mm", 7, (*MOVED, "effects.cone_interface=\"sliding\"",
+                                                   "loading.displacement_mm=12"), "a large pull, bilateral"))
+    cases.append(Case("cones: coulomb, soft tissue", 7, (*MOVED, cones, "materials.tissue_scale=0.3112",
+                                                         "loading.displacement_mm=8"),
+                      "the calibrated tissue scale of docs/reproduction.md"))
+    cases.append(Case("cones: coulomb, filleted rims", 7, (*MOVED, cones, "geometry.cone_fillet_mm=0.05",
+                                                           "loading.displacement_mm=6"), "rounded cone rims"))
+    cases.append(Case("cones and thread: coulomb, 6 mm", 7, (*MOVED, cones, "effects.thread_interface=\"coulomb\"",
+                                                             "loading.displacement_mm=6"),
+                      "nothing tied: the device's model"))
     return cases
 
 

@@ -38,6 +38,8 @@ def plot_interface(record: Mapping[str, Any], png: str | Path, title: str = "") 
         s = np.asarray(prof["s_mm"], dtype=float)
         ax_cp.plot(s, np.asarray(prof["pressure_pa"], dtype=float) / 1e3, "-", color=colour, lw=1.2, label=label)
         ax_cs.plot(s, np.asarray(prof["shear_pa"], dtype=float) / 1e3, "-", color=colour, lw=1.2, label=label)
+    if "cone_contact" in interface:
+        _cone_contact(ax_cp, ax_cs, interface, cones, cmap)
     thread = profiles.get("thread", {})
     z = np.asarray(thread.get("s_mm", []), dtype=float)
     label = f"thread: {shares.get('thread', float('nan')):.3g} N"
@@ -72,3 +74,18 @@ def plot_interface(record: Mapping[str, Any], png: str | Path, title: str = "") 
     fig.suptitle(title or (f"Interface at F = {record['force_n']:g} N: thread {interface['thread']}, "
                            f"cones {interface['cones']}"), fontsize=11)
     return _save(fig, png)
+
+
+def _cone_contact(ax_p: Any, ax_s: Any, interface: Mapping[str, Any], cones: list[str], cmap: Any) -> None:
+    """The cones' gap map (where the tissue has lifted off, shaded in each cone's colour) and their slip."""
+    twin = ax_s.twinx()
+    for i, name in enumerate(cones):
+        colour = cmap(0.85 * i / max(len(cones) - 1, 1))
+        for lo, hi in interface["cone_contact"]["cones"].get(name, {}).get("separated_s_mm", []):
+            ax_p.axvspan(lo, hi, color=colour, alpha=0.12, lw=0, zorder=0)
+        prof = interface["profiles"][name]
+        if "slip_mm" in prof:
+            slip = np.asarray([np.nan if v is None else v for v in prof["slip_mm"]], dtype=float)
+            twin.plot(np.asarray(prof["s_mm"], dtype=float), slip, "--", color=colour, lw=0.9)
+    twin.set_ylabel("slip along the cone (mm, dashed)")
+    ax_p.plot([], [], "s", color="0.8", label="tissue lifted off (shaded)")

@@ -352,6 +352,10 @@ def advice(physics: Physics, cause: StopCause) -> str:
     under a load the mixed formulation carries (docs/hardcases.md: K x10-x1000 at P2).
     """
     effects = getattr(physics, "effects", None)
+    stuck = cause in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT)
+    if effects is not None and effects.cone_contact and stuck and getattr(physics, "degree", 1) == 2:
+        return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 the tissue "
+                "tied at the cone's junction with the thread distorts within the first 0.3 N (docs/contact.md)")
     if effects is not None and effects.unilateral_thread and cause in (StopCause.NEWTON_DIVERGENCE,
                                                                       StopCause.INVERTED_ELEMENT):
         if effects.frictional_thread:

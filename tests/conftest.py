@@ -57,6 +57,14 @@ def cli(args: list[str], *, ranks: int = 1, timeout: float | None = None) -> sub
     return subprocess.run(cmd, capture_output=True, text=True, env=mpi_env(), cwd=ROOT, timeout=timeout)
 
 
+def run_paper(tmp_path_factory, name: str, overrides: list[str], ranks: int = 1, timeout: float = 900) -> dict:
+    """`suture-fem run paper` with the overrides in a fresh process, no pictures; returns results.json."""
+    out = tmp_path_factory.mktemp(name)
+    proc = cli(["run", "paper", *sets(overrides), "--no-pictures", "--out", str(out)], ranks=ranks, timeout=timeout)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads((out / "results.json").read_text())
+
+
 def run_inprocess(scene: str, overrides: list[str], out: Path) -> dict:
     """`suture-fem run` in this process (forms stay cached between tests); returns results.json."""
     from suture_fem.cli import main

@@ -88,40 +88,33 @@ MOVED = ("mesh.degree=1", "loading.control=\"displacement\"")
 
 
 def contact_cases() -> list[Case]:
-    """Group 7: the thread in its own track (friction 0 to 1, a large pull, soft tissue, filleted rims)."""
-    coulomb = "effects.thread_interface=\"coulomb\""
-    cases = [Case(f"contact: coulomb mu {mu:g}, 6 mm", 7, (*MOVED, coulomb, f"effects.friction_coefficient={mu:g}",
-                                                           "loading.displacement_mm=6"), "friction coefficient")
-             for mu in (0.0, 0.1, 0.5, 1.0)]
-    cases.append(Case("contact: coulomb, 12 mm", 7, (*MOVED, coulomb, "loading.displacement_mm=12"),
-                      "a large pull (the tied scene takes 12 N at about 9 mm)"))
-    cases.append(Case("contact: frictionless, 12 mm", 7, (*MOVED, "effects.thread_interface=\"frictionless\"",
-                                                          "loading.displacement_mm=12"), "a large pull"))
-    cases.append(Case("contact: coulomb, soft tissue", 7, (*MOVED, coulomb, "materials.tissue_scale=0.3112",
-                                                           "loading.displacement_mm=8"),
-                      "the calibrated tissue scale of docs/reproduction.md"))
-    cases.append(Case("contact: coulomb, filleted rims", 7, (*MOVED, coulomb, "geometry.cone_fillet_mm=0.05",
-                                                             "loading.displacement_mm=6"), "rounded cone rims"))
-    return cases + cone_cases()
-
-
-def cone_cases() -> list[Case]:
-    """Group 7, the cones' surfaces: friction 0 to 1, a large pull, soft tissue, filleted rims (the thread tied)."""
-    cones = "effects.cone_interface=\"coulomb\""
-    cases = [Case(f"cones: coulomb mu {mu:g}, 6 mm", 7, (*MOVED, cones, f"effects.friction_coefficient={mu:g}",
-                                                         "loading.displacement_mm=6"), "friction coefficient")
-             for mu in (0.0, 0.1, 0.5, 1.0)]
-    cases.append(Case("cones: coulomb, 12 mm", 7, (*MOVED, cones, "loading.displacement_mm=12"), "a large pull"))
-    cases.append(Case("cones: sliding, 12 mm", 7, (*MOVED, "effects.cone_interface=\"sliding\"",
-                                                   "loading.displacement_mm=12"), "a large pull, bilateral"))
-    cases.append(Case("cones: coulomb, soft tissue", 7, (*MOVED, cones, "materials.tissue_scale=0.3112",
-                                                         "loading.displacement_mm=8"),
-                      "the calibrated tissue scale of docs/reproduction.md"))
-    cases.append(Case("cones: coulomb, filleted rims", 7, (*MOVED, cones, "geometry.cone_fillet_mm=0.05",
-                                                           "loading.displacement_mm=6"), "rounded cone rims"))
-    cases.append(Case("cones and thread: coulomb, 6 mm", 7, (*MOVED, cones, "effects.thread_interface=\"coulomb\"",
+    """Group 7: the thread in its own track, then the cones' surfaces (the thread tied)."""
+    thread = _interface_cases("contact", "thread")
+    thread.insert(5, Case("contact: frictionless, 12 mm", 7, (*MOVED, "effects.thread_interface=\"frictionless\"",
+                                                              "loading.displacement_mm=12"), "a large pull"))
+    cones = _interface_cases("cones", "cone")
+    cones.insert(5, Case("cones: sliding, 12 mm", 7, (*MOVED, "effects.cone_interface=\"sliding\"",
+                                                      "loading.displacement_mm=12"), "a large pull, bilateral"))
+    cones.append(Case("cones and thread: coulomb, 6 mm", 7, (*MOVED, "effects.cone_interface=\"coulomb\"",
+                                                             "effects.thread_interface=\"coulomb\"",
                                                              "loading.displacement_mm=6"),
                       "nothing tied: the device's model"))
+    return thread + cones
+
+
+def _interface_cases(label: str, part: str) -> list[Case]:
+    """Coulomb on one interface (``effects.{part}_interface``): friction 0 to 1, a large pull, soft tissue, fillets."""
+    coulomb = f"effects.{part}_interface=\"coulomb\""
+    cases = [Case(f"{label}: coulomb mu {mu:g}, 6 mm", 7, (*MOVED, coulomb, f"effects.friction_coefficient={mu:g}",
+                                                           "loading.displacement_mm=6"), "friction coefficient")
+             for mu in (0.0, 0.1, 0.5, 1.0)]
+    cases.append(Case(f"{label}: coulomb, 12 mm", 7, (*MOVED, coulomb, "loading.displacement_mm=12"),
+                      "a large pull (the tied scene takes 12 N at about 9 mm)"))
+    cases.append(Case(f"{label}: coulomb, soft tissue", 7, (*MOVED, coulomb, "materials.tissue_scale=0.3112",
+                                                            "loading.displacement_mm=8"),
+                      "the calibrated tissue scale of docs/reproduction.md"))
+    cases.append(Case(f"{label}: coulomb, filleted rims", 7, (*MOVED, coulomb, "geometry.cone_fillet_mm=0.05",
+                                                              "loading.displacement_mm=6"), "rounded cone rims"))
     return cases
 
 

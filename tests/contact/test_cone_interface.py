@@ -9,12 +9,11 @@ frictionless, the rigid suture), 2 ranks equal to serial, and the refused combin
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
-from tests.conftest import FAST, cli, sets
+from tests.conftest import FAST, cli, run_paper, sets
+from tests.contact import split_mesh
 
 SCENE = [*FAST, "geometry.cones=1", "output.quantities=[\"usum\",\"interface\"]"]
 
@@ -23,11 +22,7 @@ def _cones(model: str, *more: str) -> list[str]:
     return [*SCENE, f'effects.cone_interface="{model}"', *more]
 
 
-def _run(tmp_path_factory, name: str, overrides: list[str], ranks: int = 1) -> dict:
-    out = tmp_path_factory.mktemp(name)
-    proc = cli(["run", "paper", *sets(overrides), "--no-pictures", "--out", str(out)], ranks=ranks, timeout=900)
-    assert proc.returncode == 0, proc.stderr
-    return json.loads((out / "results.json").read_text())
+_run = run_paper
 
 
 @pytest.fixture(scope="module")
@@ -41,41 +36,13 @@ def frictionless(tmp_path_factory):
 
 
 def test_the_split_mesh_keeps_only_the_thread_junctions_of_a_cone():
-    import gmsh
+    from suture_fem.geometry.regions import Facet
 
-    from suture_fem.geometry.gmsh_model import MeshSizes, build_gmsh_model
-    from suture_fem.geometry.regions import Cell, Facet
-    from suture_fem.geometry.section import Geometry
-    from suture_fem.pipeline import load_scene
-
-    scene = load_scene("paper", [*FAST, "geometry.cones=2"])
-    g = Geometry.from_section(scene.geometry)
-    found = {}
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        for thread in (False, True):
-            build_gmsh_model(g, MeshSizes.from_section(scene.mesh), split_thread=thread, split_cones=True)
-
-            def nodes_of(tags):
-                out = set()
-                for tag in tags:
-                    for e in gmsh.model.getEntitiesForPhysicalGroup(2, tag):
-                        out |= set(np.concatenate(gmsh.model.mesh.getElements(2, e)[2]).tolist())
-                return out
-
-            tissue = nodes_of([Cell.HYPODERMIS, Cell.DERMIS, Cell.EPIDERMIS])
-            groups = {t for _, t in gmsh.model.getPhysicalGroups(1)}
-            found[thread] = (tissue & nodes_of([Cell.CONE]), tissue & nodes_of([Cell.THREAD]), groups)
-            gmsh.model.remove()
-    finally:
-        gmsh.finalize()
-    cone_tied_thread, thread_tied, groups = found[False]
-    assert len(cone_tied_thread) == 2 * 2 and cone_tied_thread <= thread_tied  # two junctions per hollow cone
-    assert int(Facet.CONE_CONTACT) in groups and int(Facet.TRACK) not in groups
-    cone_free, thread_free, groups = found[True]
-    assert not cone_free and not thread_free  # everything split: the tissue shares no node with the suture
-    assert {int(Facet.CONE_CONTACT), int(Facet.TRACK)} <= groups
+    tied_thread, free = split_mesh(split_cones=True), split_mesh(split_thread=True, split_cones=True)
+    assert len(tied_thread["cone"]) == 2 * 2 and tied_thread["cone"] <= tied_thread["thread"]  # 2 junctions a cone
+    assert int(Facet.CONE_CONTACT) in tied_thread["groups"] and int(Facet.TRACK) not in tied_thread["groups"]
+    assert not free["cone"] and not free["thread"]  # everything split: the tissue shares no node with the suture
+    assert {int(Facet.CONE_CONTACT), int(Facet.TRACK)} <= free["groups"]
 
 
 def test_the_cone_terms_are_the_derivatives_of_their_potential():

@@ -8,21 +8,15 @@ the same scene stops with a diagnosis, no_axial_support); scenes it cannot honou
 
 from __future__ import annotations
 
-import json
-
 import pytest
 
-from tests.conftest import FAST, cli, sets
+from tests.conftest import FAST, cli, run_paper
 
 SCENE = [*FAST, "geometry.cones=1", "output.quantities=[\"usum\",\"interface\"]"]
 DISPLACEMENT = "loading.control=\"displacement\""
 
 
-def _run(tmp_path_factory, name: str, overrides: list[str]) -> dict:
-    out = tmp_path_factory.mktemp(name)
-    proc = cli(["run", "paper", *sets(overrides), "--no-pictures", "--out", str(out)], timeout=600)
-    assert proc.returncode == 0, proc.stderr
-    return json.loads((out / "results.json").read_text())
+_run = run_paper
 
 
 @pytest.mark.parametrize("suture", ["elastic", "rigid"])

@@ -18,18 +18,15 @@ import math
 import numpy as np
 import pytest
 
-from tests.conftest import FAST, cli, sets
+from tests.conftest import FAST, cli, run_paper, sets
+from tests.contact import split_mesh
 
 #: One cone, P1, coarsest mesh, 1 N: the cheapest scene with a cone and a bare thread.
 SCENE = [*FAST, "geometry.cones=1", "output.quantities=[\"usum\",\"interface\"]"]
 SLIDING = [*SCENE, "effects.thread_interface=\"sliding\""]
 
 
-def _run(tmp_path_factory, name: str, overrides: list[str], ranks: int = 1) -> dict:
-    out = tmp_path_factory.mktemp(name)
-    proc = cli(["run", "paper", *sets(overrides), "--no-pictures", "--out", str(out)], ranks=ranks, timeout=600)
-    assert proc.returncode == 0, proc.stderr
-    return json.loads((out / "results.json").read_text())
+_run = run_paper
 
 
 @pytest.fixture(scope="module")
@@ -43,43 +40,14 @@ def sliding(tmp_path_factory):
 
 
 def test_the_split_mesh_shares_no_node_along_the_bare_thread_and_keeps_the_cones_tied():
-    import gmsh
+    from suture_fem.geometry.regions import Facet
 
-    from suture_fem.geometry.gmsh_model import MeshSizes, build_gmsh_model
-    from suture_fem.geometry.regions import Cell, Facet
-    from suture_fem.geometry.section import Geometry
-    from suture_fem.pipeline import load_scene
-
-    scene = load_scene("paper", [*FAST, "geometry.cones=2"])
-    g = Geometry.from_section(scene.geometry)
-    shared: dict[bool, tuple[set, set, int]] = {}
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        for split in (False, True):
-            build_gmsh_model(g, MeshSizes.from_section(scene.mesh), split_thread=split)
-
-            def nodes_of(tags):
-                out = set()
-                for tag in tags:
-                    for e in gmsh.model.getEntitiesForPhysicalGroup(2, tag):
-                        out |= set(np.concatenate(gmsh.model.mesh.getElements(2, e)[2]).tolist())
-                return out
-
-            tissue = nodes_of([Cell.HYPODERMIS, Cell.DERMIS, Cell.EPIDERMIS])
-            thread, cone = nodes_of([Cell.THREAD]), nodes_of([Cell.CONE])
-            groups = [t for _, t in gmsh.model.getPhysicalGroups(1)]
-            shared[split] = (tissue & thread, tissue & cone, int(Facet.TRACK) in groups)
-            gmsh.model.remove()
-    finally:
-        gmsh.finalize()
-    tied_thread, tied_cone, tied_track = shared[False]
-    split_thread, split_cone, split_track = shared[True]
-    assert len(tied_thread) > 100 and not tied_track
-    assert split_track
-    assert split_cone == tied_cone  # the cones stay tied to the tissue
+    tied, split = split_mesh(), split_mesh(split_thread=True)
+    assert len(tied["thread"]) > 100 and int(Facet.TRACK) not in tied["groups"]
+    assert int(Facet.TRACK) in split["groups"]
+    assert split["cone"] == tied["cone"]  # the cones stay tied to the tissue
     # the only thread nodes the tissue still shares are where a cone meets the thread (tied to both)
-    assert split_thread <= tied_cone and len(split_thread) == 2 * 2  # two junctions per hollow cone
+    assert split["thread"] <= tied["cone"] and len(split["thread"]) == 2 * 2  # two junctions per hollow cone
 
 
 @pytest.mark.parametrize("override, key", [('effects.thread_interface="glued"', "effects.thread_interface"),

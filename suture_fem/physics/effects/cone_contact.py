@@ -52,7 +52,7 @@ from suture_fem.geometry import regions
 from suture_fem.geometry.outline import project
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
-from suture_fem.physics.effects.friction import SlipBound, global_dofs
+from suture_fem.physics.effects.friction import SlipBound, global_dofs, open_pattern
 from suture_fem.support import compat
 
 #: The search rounds each sharp corner of a cone (off the thread) by this fraction of the suture's element size.
@@ -214,9 +214,7 @@ class ConeContact(SlipBound):
 
     def extend_pattern(self, A: Any) -> None:
         """Make room in A, once, for every coupling the terms add (new nonzeros, stored as zeros)."""
-        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
-        A.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, False)
-        A.setOption(PETSc.Mat.Option.NO_OFF_PROC_ENTRIES, False)
+        open_pattern(A)
         self._add_blocks(A, np.zeros((self.pairs, 2, 2)))
 
     def profile(self, u_vec: Any) -> dict[str, np.ndarray]:

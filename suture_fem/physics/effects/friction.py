@@ -212,9 +212,7 @@ class ThreadFriction(SlipBound):
 
     def extend_pattern(self, A: Any) -> None:
         """Make room in A, once, for every coupling the terms add (new nonzeros, stored as zeros)."""
-        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
-        A.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, False)
-        A.setOption(PETSc.Mat.Option.NO_OFF_PROC_ENTRIES, False)
+        open_pattern(A)
         n = self.dofs.shape[1]
         for row in self.dofs:
             rows = [int(i) for i in row]
@@ -275,6 +273,13 @@ def _normal_form(physics: Any, kappa: float) -> Any:
     ur = physics.u[0]
     closed = ufl.conditional(ufl.lt(ur, 0.0), -ur, 0.0)
     return compat.form(kappa * closed * v[0] * 2 * math.pi * x[0] * ds(int(Facet.TRACK)))
+
+
+def open_pattern(A: Any) -> None:
+    """Let hand-assembled terms add entries to A: new nonzeros, and rows owned by another rank."""
+    A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+    A.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, False)
+    A.setOption(PETSc.Mat.Option.NO_OFF_PROC_ENTRIES, False)
 
 
 def global_dofs(physics: Any, nodes: np.ndarray, component: int) -> np.ndarray:

@@ -39,6 +39,8 @@ class Facet(IntEnum):
     #: the tissue's side of a sliding thread's track (``effects.thread_interface = "sliding"``): its own
     #: nodes, coincident with the thread's surface nodes (which keep the tag ``interface``)
     TRACK = 19
+    #: the 3-D half model's symmetry plane through the thread (``geometry.dimension = 3``)
+    SYMMETRY = 20
 
 
 #: The material regions, tissue layers inside out, then the suture.

@@ -82,7 +82,8 @@ class Physics:
         control: the pulled end's :class:`DisplacementControl` (``loading.control = "displacement"``; else None).
         bcs: Dirichlet conditions, in W (zero, except u_z = d on a rigid suture).
         energy: strain energy (J); end_displacement: 2 pi r-weighted integral of u_z over the pulled face.
-        outer_z_dofs: the outer surface's u_z dofs (where the reaction force is read); pull_area: pi r_t^2.
+        outer_z_dofs: the outer surface's u_z dofs (where the reaction force is read); pull_area: pi r_t^2 (3-D:
+            the end face's area as meshed, doubled).
         dx, x, F: the cell measure, the coordinates and the deformation gradient of ``u``.
         unknowns: what SNES solves for; dynamics: time integration (None without inertia).
         u_in_state: where ``u``'s dofs sit in ``state`` (mixed; None otherwise).
@@ -288,7 +289,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         contact_energy=terms.potential.get("contact:thread"),
         end_displacement=kinematics.axial(u) * ctx.weight * ctx.ds(regions.Facet.PULL_FACE),
         outer_z_dofs=constraints.outer_z_dofs,
-        pull_area=math.pi * r_t**2,
+        pull_area=math.pi * r_t**2 if tagged.mesh.geometry.dim == 2 else _face_area(ctx, regions.Facet.PULL_FACE),
         dx=ctx.dx,
         x=ctx.x,
         F=F,
@@ -303,6 +304,14 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     if effects.frictional_thread:
         physics.friction = ThreadFriction.on(physics, scene.effects, kappa)
     return physics
+
+
+def _face_area(ctx: FormContext, tag: int) -> float:
+    """The weighted area of a tagged face as meshed (m^2): in 3-D the polygonal end face is smaller than pi r_t^2."""
+    from mpi4py import MPI
+
+    local = dolfinx.fem.assemble_scalar(compat.form(ctx.weight * ctx.ds(tag)))
+    return float(ctx.w.function_space.mesh.comm.allreduce(local, op=MPI.SUM))
 
 
 def _displacement_of(mixed: bool) -> Callable[[Any], Any]:

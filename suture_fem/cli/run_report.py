@@ -81,6 +81,8 @@ def _tissue_peak(rec: dict[str, Any], key: str) -> tuple[float, list[float], str
 
 
 def _at(rz: list[float]) -> str:
+    if len(rz) == 3:  # 3-D: (x, y, z), the thread along y
+        return f"x = {rz[0]:.2f}, y = {rz[1]:.2f}, z = {rz[2]:.2f} mm"
     return f"r = {rz[0]:.2f}, z = {rz[1]:.2f} mm"
 
 

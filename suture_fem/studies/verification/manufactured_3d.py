@@ -58,7 +58,7 @@ def errors_3d(problem: Problem, exact: ExactField3) -> tuple[float, float]:
 
 def manufactured_solve_3d(comm: Any, material: Material, tag: int, exact: ExactField3, degree: int, n: int,
                           size: float) -> ManufacturedResult:
-    """Solve the manufactured problem on [0, size]^3 with n^3 small cubes (6 tetrahedra each); u = u* on the boundary."""
+    """Solve the manufactured problem on [0, size]^3, n^3 small cubes (6 tetrahedra each); u = u* on the boundary."""
     mesh = dolfinx.mesh.create_box(comm, [np.zeros(3), np.full(3, size)], [n, n, n], dolfinx.mesh.CellType.tetrahedron)
     tdim = mesh.topology.dim
     n_cells = mesh.topology.index_map(tdim).size_local + mesh.topology.index_map(tdim).num_ghosts

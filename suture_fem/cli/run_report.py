@@ -31,7 +31,7 @@ class Pictures:
         from suture_fem import plots
 
         reports = model.results.at_forces if model.results is not None else []
-        if reports:
+        if reports and model.mesh.geometry.dim == 2:  # the USUM picture is of the 2-D section (3-D: the curve only)
             with model.at(reports[-1].force_n) as report:
                 self.grid, self.force_n = plots.field_grid(model.outputs), report.force_n
 

@@ -26,9 +26,11 @@ CALIBRATION = 0.7
 #: Vertices per tetrahedron of a gmsh mesh, and P2 nodes (vertices and edges) per tetrahedron.
 VERTICES_PER_CELL = 0.2
 P2_NODES_PER_CELL = 1.4
-#: Peak memory of one 3-D solve: a base plus a share per unknown (MUMPS' 3-D fill-in is larger than 2-D's).
-BASE_GIB = 0.3
-BYTES_PER_UNKNOWN = 20_000
+#: Peak memory of one 3-D solve: a base plus a share per unknown. Measured (P1, MUMPS, one process,
+#: benchmarks/three_d.py): 387 MB with 30,921 dofs, 585 MB with 55,893, 723 MB with 65,652, i.e. about 10 kB
+#: per dof over the 2-D runs' 190 MB base; MUMPS' 3-D fill-in grows faster than the dofs, hence the margin.
+BASE_GIB = 0.2
+BYTES_PER_UNKNOWN = 12_000
 
 
 def estimate_3d(geometry: Geometry, sizes: MeshSizes, degree: int) -> MeshEstimate:

@@ -135,12 +135,17 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
     path = check_msh_path(path)
     geometry = Geometry.from_section(geometry_section)
     sizes = MeshSizes.from_section(mesh_section)
+    dim = geometry_section.dimension
     with compat.gmsh_session() as gmsh:
         try:
-            build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree, split_thread=split_thread)
+            if dim == 3:
+                build_gmsh_model_3d(geometry, sizes)
+            else:
+                build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree,
+                                 split_thread=split_thread)
             _write_checked(gmsh, path)
             nodes = len(gmsh.model.mesh.getNodes()[0])
-            types, tags, _ = gmsh.model.mesh.getElements(2)
+            types, tags, _ = gmsh.model.mesh.getElements(dim)
             cells = sum(len(t) for t in tags)
         finally:
             gmsh.model.remove()
@@ -148,7 +153,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
         "suture_fem_version": __version__,
         "units": "mm",
         "nodes": nodes,
-        "triangles": int(cells),
+        "triangles" if dim == 2 else "tetrahedra": int(cells),
         "geometry_degree": 2 if GMSH_TRIANGLE6 in types else 1,
         "thread_track_split": split_thread,
         "cell_tags": CELL_TAGS,

@@ -77,3 +77,15 @@ def test_3d_stress_measures_equal_the_axisymmetric_ones_on_an_axisymmetric_state
     b3 = np.column_stack([b2[:, 0], b2[:, 1], b2[:, 2], b2[:, 3], np.zeros(50), np.zeros(50)])
     for a, b in zip(hencky_equivalent(b3), hencky_equivalent(b2)):
         np.testing.assert_allclose(a, b, rtol=1e-10)
+
+
+def test_the_3d_mesh_file_has_tetrahedra_and_the_symmetry_plane(tmp_path):
+    from suture_fem.geometry.mesh import write_msh
+    from suture_fem.scene.schema import GeometrySection, MeshSection
+
+    record = write_msh(GeometrySection(dimension=3, cones=1),
+                       MeshSection(size_suture_mm=0.6, size_rim_mm=0.2, size_far_mm=4.8), tmp_path / "m.msh")
+    assert record["tetrahedra"] > 0 and "triangles" not in record
+    text = (tmp_path / "m.msh").read_text()
+    for name in ("symmetry", "outer", "interface", "pull_face", "hypodermis", "cone"):
+        assert f'"{name}"' in text, name

@@ -32,6 +32,7 @@ from typing import Any
 
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry.estimate import check_fits
+from suture_fem.geometry.estimate_3d import check_fits_3d
 from suture_fem.geometry.section import Geometry
 from suture_fem.outputs.evaluate import Outputs
 from suture_fem.outputs.report import Report
@@ -40,6 +41,7 @@ from suture_fem.outputs.snapshots import Snapshot
 from suture_fem.outputs.steps import Clock, LoadSteps, OnReport, output_folder
 from suture_fem.physics.effects import check_scene
 from suture_fem.physics.problem import Physics, build_physics
+from suture_fem.physics.three_d import check_three_d
 from suture_fem.scene import Scene
 from suture_fem.solve.records import Timings
 from suture_fem.solve.stepping import ramp
@@ -64,7 +66,9 @@ def check(scene: Scene) -> None:
                          f"got mesh.degree = {scene.mesh.degree} (reproduce's P1 mesh rungs and convergence's "
                          "degree-1 rungs set it: use --mesh scene, or --degrees 2)")
     check_scene(scene)
-    log.info("mesh estimate: %s", check_fits(geometry, scene.mesh).describe())
+    check_three_d(scene)
+    fits = check_fits_3d if scene.geometry.dimension == 3 else check_fits
+    log.info("mesh estimate: %s", fits(geometry, scene.mesh).describe())
 
 
 def _check_axial_support(scene: Scene) -> None:

@@ -31,7 +31,7 @@ class Pictures:
         from suture_fem import plots
 
         reports = model.results.at_forces if model.results is not None else []
-        if reports:
+        if reports and model.mesh.geometry.dim == 2:  # the USUM picture is of the 2-D section (3-D: the curve only)
             with model.at(reports[-1].force_n) as report:
                 self.grid, self.force_n = plots.field_grid(model.outputs), report.force_n
 
@@ -81,6 +81,8 @@ def _tissue_peak(rec: dict[str, Any], key: str) -> tuple[float, list[float], str
 
 
 def _at(rz: list[float]) -> str:
+    if len(rz) == 3:  # 3-D: (x, y, z), the thread along y
+        return f"x = {rz[0]:.2f}, y = {rz[1]:.2f}, z = {rz[2]:.2f} mm"
     return f"r = {rz[0]:.2f}, z = {rz[1]:.2f} mm"
 
 

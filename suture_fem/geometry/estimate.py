@@ -50,6 +50,17 @@ def estimate(geometry: Geometry, sizes: MeshSizes, degree: int) -> MeshEstimate:
     """Estimated triangles, unknowns (2 per P1 node or P2 node) and peak memory of one solve."""
     g = geometry
     n_r, n_z = 400, 800
+    rr, zz, h = size_grid(g, sizes, n_r, n_z)
+    inside = (zz <= g.length) | (rr <= g.r_thread)  # the free thread end is the only part above the tissue
+    cell_area = (g.r_epidermis / n_r) * (g.z_end / n_z)
+    cells = CALIBRATION * float(np.sum(inside * cell_area * 4.0 / (math.sqrt(3.0) * h**2)) + _fillet_cells(g, sizes))
+    nodes = cells / 2.0 * (1 if degree == 1 else 4)  # a triangulation has about twice as many cells as vertices
+    unknowns = int(2 * nodes)
+    return MeshEstimate(int(cells), unknowns, BASE_GIB + unknowns * BYTES_PER_UNKNOWN / 2**30)
+
+
+def size_grid(g: Geometry, sizes: MeshSizes, n_r: int, n_z: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(r, z, h): the background size field on the cell centres of an n_r x n_z grid over the half-section (mm)."""
     r = (np.arange(n_r) + 0.5) * g.r_epidermis / n_r
     z = (np.arange(n_z) + 0.5) * g.z_end / n_z
     rr, zz = np.meshgrid(r, z, indexing="ij")
@@ -64,12 +75,7 @@ def estimate(geometry: Geometry, sizes: MeshSizes, degree: int) -> MeshEstimate:
         near = np.hypot(rr - rc, zz - zc)
         rim = sizes.rim + (sizes.suture - sizes.rim) * np.minimum(near / (4.0 * sizes.suture), 1.0)
         h = np.minimum(h, rim)
-    inside = (zz <= g.length) | (rr <= g.r_thread)  # the free thread end is the only part above the tissue
-    cell_area = (g.r_epidermis / n_r) * (g.z_end / n_z)
-    cells = CALIBRATION * float(np.sum(inside * cell_area * 4.0 / (math.sqrt(3.0) * h**2)) + _fillet_cells(g, sizes))
-    nodes = cells / 2.0 * (1 if degree == 1 else 4)  # a triangulation has about twice as many cells as vertices
-    unknowns = int(2 * nodes)
-    return MeshEstimate(int(cells), unknowns, BASE_GIB + unknowns * BYTES_PER_UNKNOWN / 2**30)
+    return rr, zz, h
 
 
 def _fillet_cells(g: Geometry, sizes: MeshSizes) -> float:

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from suture_fem.geometry.gmsh_3d import build_gmsh_model_3d
 from suture_fem.geometry.gmsh_model import MeshSizes, build_gmsh_model
 from suture_fem.geometry.regions import CELL_TAGS, FACET_TAGS, MM, REGION_OF_TAG, REGIONS
 from suture_fem.geometry.section import Geometry
@@ -45,19 +46,21 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
     """
     geometry = Geometry.from_section(geometry_section)
     sizes = MeshSizes.from_section(mesh_section)
+    gdim = geometry_section.dimension
+    build, args = ((build_gmsh_model_3d, (geometry, sizes)) if gdim == 3 else
+                   (build_gmsh_model, (geometry, sizes, "suture", mesh_section.geometry_degree, split_thread,
+                                       split_cones)))
     if comm.rank == 0:
         with compat.gmsh_session() as gmsh:
             try:
-                on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes, "suture",
-                        mesh_section.geometry_degree, split_thread, split_cones)
-                mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
+                on_root(comm, "meshing (gmsh)", build, *args)
+                mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=gdim)
             finally:
                 gmsh.model.remove()
     else:
-        on_root(comm, "meshing (gmsh)", build_gmsh_model, geometry, sizes, "suture",  # rank 0's outcome, on every rank
-                mesh_section.geometry_degree, split_thread, split_cones)
-        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
-    mesh.geometry.x[:, :2] *= MM
+        on_root(comm, "meshing (gmsh)", build, *args)  # rank 0's outcome, on every rank
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=gdim)
+    mesh.geometry.x[:, :gdim] *= MM
     folded = mesh.comm.allreduce(folded_cells(mesh)) if geometry_degree(mesh) == 2 else 0
     if folded:
         raise SceneError(f"mesh.geometry_degree = 2: {folded} quadratic cell(s) on the fillet arcs fold over (their "
@@ -135,13 +138,17 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
     path = check_msh_path(path)
     geometry = Geometry.from_section(geometry_section)
     sizes = MeshSizes.from_section(mesh_section)
+    dim = geometry_section.dimension
     with compat.gmsh_session() as gmsh:
         try:
-            build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree, split_thread=split_thread,
-                             split_cones=split_cones)
+            if dim == 3:
+                build_gmsh_model_3d(geometry, sizes)
+            else:
+                build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree,
+                                 split_thread=split_thread, split_cones=split_cones)
             _write_checked(gmsh, path)
             nodes = len(gmsh.model.mesh.getNodes()[0])
-            types, tags, _ = gmsh.model.mesh.getElements(2)
+            types, tags, _ = gmsh.model.mesh.getElements(dim)
             cells = sum(len(t) for t in tags)
         finally:
             gmsh.model.remove()
@@ -149,7 +156,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
         "suture_fem_version": __version__,
         "units": "mm",
         "nodes": nodes,
-        "triangles": int(cells),
+        "triangles" if dim == 2 else "tetrahedra": int(cells),
         "geometry_degree": 2 if GMSH_TRIANGLE6 in types else 1,
         "thread_track_split": split_thread,
         **({"cone_surfaces_split": True} if split_cones else {}),
@@ -179,18 +186,32 @@ def facets(tagged: TaggedMesh, tag: int) -> np.ndarray:
 def describe(tagged: TaggedMesh) -> dict[str, Any]:
     """Global cell count and sizes, JSON-ready."""
     m = tagged.mesh
-    n_local = m.topology.index_map(2).size_local
-    return {
+    n_local = m.topology.index_map(m.topology.dim).size_local
+    out = {
         "cells": int(m.comm.allreduce(n_local)),
         "geometry_degree": geometry_degree(m),
         "sizes_mm": tagged.sizes.__dict__,
         "geometry": tagged.geometry.describe(),
     }
+    if m.geometry.dim == 3:
+        kind = f"{tagged.geometry.kind} (as in 2-D)" if tagged.geometry.cones else "none"
+        out["model_3d"] = MODEL_3D | {"cones": kind}
+    return out
+
+
+#: results.json's description of the 3-D model (``geometry.dimension = 3``).
+MODEL_3D = {
+    "tissue_shape": "cylinder",
+    "symmetry": "half model: the solid z <= 0, symmetry plane z = 0 through the thread's axis (u_z = 0 on it); "
+                "energies, forces and reactions are those of the whole solid (the half's doubled)",
+    "axes": "x, y, z in mm; the thread along y (the 2-D model's z), r = sqrt(x^2 + z^2)",
+    "cells": "linear tetrahedra (straight-sided), the 2-D section revolved by pi",
+}
 
 
 def geometry_degree(mesh: Any) -> int:
-    """The degree of the mesh's cells, from their nodes: 3 (straight-sided) -> 1, 6 (quadratic) -> 2."""
-    return {3: 1, 6: 2}[compat.geometry_dofs(mesh).shape[1]]
+    """The degree of the mesh's cells, from their nodes: 3 or 4 (straight-sided) -> 1, 6 or 10 (quadratic) -> 2."""
+    return {3: 1, 6: 2, 4: 1, 10: 2}[compat.geometry_dofs(mesh).shape[1]]
 
 
 #: Points of the reference triangle where :func:`folded_cells` evaluates the Jacobian: vertices, edge midpoints,

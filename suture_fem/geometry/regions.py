@@ -42,6 +42,8 @@ class Facet(IntEnum):
     #: the tissue's side of the cones' surfaces when they are not tied (``effects.cone_interface``): its own
     #: nodes, coincident with the cones' surface nodes (which keep the tag ``interface``)
     CONE_CONTACT = 20
+    #: the 3-D half model's symmetry plane through the thread (``geometry.dimension = 3``)
+    SYMMETRY = 21
 
 
 #: The material regions, tissue layers inside out, then the suture.

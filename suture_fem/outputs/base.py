@@ -38,10 +38,10 @@ POINT_OUTPUTS = frozenset(POINT_QUANTITIES)
 
 
 def von_mises(s: np.ndarray) -> np.ndarray:
-    """Von Mises equivalent of symmetric tensors given as columns (rr, zz, tt, rz)."""
+    """Von Mises equivalent of symmetric tensors as columns (rr, zz, tt, rz), or in 3-D (xx, yy, zz, xy, yz, xz)."""
     mean = (s[:, 0] + s[:, 1] + s[:, 2]) / 3.0
     d = s[:, :3] - mean[:, None]
-    return np.sqrt(1.5 * (np.sum(d**2, axis=1) + 2.0 * s[:, 3] ** 2))
+    return np.sqrt(1.5 * (np.sum(d**2, axis=1) + 2.0 * np.sum(s[:, 3:] ** 2, axis=1)))
 
 
 def hencky_equivalent(b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -49,18 +49,23 @@ def hencky_equivalent(b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
     The Hencky strain is h = 1/2 ln B (from the eigenvalues of B: the two in-plane ones and the hoop
     one); its equivalent is sqrt(2/3 dev(h):dev(h)), ANSYS's EPTOEQV with effective Poisson ratio 0.5.
+    In 3-D the columns are (xx, yy, zz, xy, yz, xz) and the eigenvalues are numpy's.
     """
-    half_tr = 0.5 * (b[:, 0] + b[:, 1])
-    det2 = b[:, 0] * b[:, 1] - b[:, 3] ** 2
-    disc = np.sqrt(np.maximum(half_tr**2 - det2, 0.0))
-    lam = np.stack([half_tr + disc, half_tr - disc, b[:, 2]], axis=1)
+    if b.shape[1] == 6:
+        full = np.stack([b[:, [0, 3, 5]], b[:, [3, 1, 4]], b[:, [5, 4, 2]]], axis=1)
+        lam = np.linalg.eigvalsh(full) if len(b) else np.zeros((0, 3))
+    else:
+        half_tr = 0.5 * (b[:, 0] + b[:, 1])
+        det2 = b[:, 0] * b[:, 1] - b[:, 3] ** 2
+        disc = np.sqrt(np.maximum(half_tr**2 - det2, 0.0))
+        lam = np.stack([half_tr + disc, half_tr - disc, b[:, 2]], axis=1)
     h = 0.5 * np.log(lam)
     dev = h - h.mean(axis=1, keepdims=True)
     return np.sqrt(2.0 / 3.0 * np.sum(dev**2, axis=1)), np.sqrt(np.prod(lam, axis=1))
 
 
 class Maximum(NamedTuple):
-    """A maximum over all ranks and where it is: (r, z) in mm, None where nobody owns a value."""
+    """A maximum over all ranks and where it is: (r, z) (3-D: (x, y, z)) in mm, None where nobody owns a value."""
 
     value: float
     at_mm: list[float] | None
@@ -70,7 +75,7 @@ def global_max(comm: Any, values: np.ndarray, coords: np.ndarray) -> Maximum:
     """Max over ranks with its (r, z) in mm; (-inf, None) where nobody owns a value (collective)."""
     if len(values):
         k = int(np.argmax(values))
-        local = (float(values[k]), [float(c) / MM for c in coords[k, :2]])
+        local = (float(values[k]), [float(c) / MM for c in coords[k, :3]])
     else:
         local = (-np.inf, None)
     return Maximum(*max(comm.allgather(local), key=lambda t: t[0]))
@@ -80,12 +85,14 @@ class PointFields:
     """The stress and strain tensors at the quadrature points of the energy integral, per cell tag.
 
     ``tensor_exprs[tag]`` is the compiled expression of the tag's material: 8 components per point,
-    the in-plane Cauchy stress (rr, zz, tt, rz) then B (rr, zz, tt, rz).
+    the in-plane Cauchy stress (rr, zz, tt, rz) then B (rr, zz, tt, rz); in 3-D 12, the six of each.
     """
 
     def __init__(self, physics: Physics, output: OutputSection):
         self.physics = physics
-        points = compat.quadrature_points("triangle", quadrature_degree(physics.degree))
+        self.dim = gdim = physics.mesh.geometry.dim
+        self.width = 8 if gdim == 2 else 12
+        points = compat.quadrature_points("triangle" if gdim == 2 else "tetrahedron", quadrature_degree(physics.degree))
         F = physics.F
         B = F * F.T
         self.tensor_exprs: dict[int, Any] = {}
@@ -93,22 +100,22 @@ class PointFields:
         for tag, region in REGION_OF_TAG.items():
             if region not in by_region:
                 sigma = cauchy(physics.materials[region], F)
-                comps = kinematics.in_plane(sigma) + kinematics.in_plane(B)
+                comps = kinematics.in_plane(sigma, gdim) + kinematics.in_plane(B, gdim)
                 by_region[region] = compat.expression(ufl.as_vector(comps), points)
             self.tensor_exprs[tag] = by_region[region]
         self.cells = {tag: meshmod.region_cells(physics.tagged, tag) for tag in self.tensor_exprs}
         x_expr = compat.expression(physics.x, points)
-        self.xy = {region: self._stack(region, lambda tag: self._eval(x_expr, self.cells[tag]).reshape(-1, 2), 2)
+        self.xy = {region: self._stack(region, lambda tag: self._eval(x_expr, self.cells[tag]).reshape(-1, gdim), gdim)
                    for region in REPORT_REGIONS}
         self.outside_rims = {region: self._outside_rims(xy, output) for region, xy in self.xy.items()}
 
     def tensors(self, tag: int) -> np.ndarray:
-        """The 8 components at every quadrature point of the tag's local cells, one row per point."""
-        return self._eval(self.tensor_exprs[tag], self.cells[tag]).reshape(-1, 8)
+        """The 8 (3-D: 12) components at every quadrature point of the tag's local cells, one row per point."""
+        return self._eval(self.tensor_exprs[tag], self.cells[tag]).reshape(-1, self.width)
 
     def region_tensors(self, region: str) -> np.ndarray:
         """:meth:`tensors` of every tag of a region, stacked in the order of :attr:`xy`."""
-        return self._stack(region, self.tensors, 8)
+        return self._stack(region, self.tensors, self.width)
 
     def _stack(self, region: str, per_tag: Any, width: int) -> np.ndarray:
         parts = [per_tag(tag) for tag in REPORT_REGIONS[region] if len(self.cells[tag])]
@@ -122,8 +129,10 @@ class PointFields:
 
         Outside: farther than ``output.rim_exclusion_mm`` from every cone corner and from the two
         points where the thread crosses the tissue's end faces (all re-entrant corners of the
-        suture-tissue interface).
+        suture-tissue interface). In 3-D a point's (r, z) is (sqrt(x^2 + z^2), y).
         """
+        if self.dim == 3 and len(xy):
+            xy = np.column_stack([np.hypot(xy[:, 0], xy[:, 2]), xy[:, 1]])
         g = self.physics.tagged.geometry
         corners = np.array([*g.corners, (g.r_thread, 0.0), (g.r_thread, g.length)], dtype=float).reshape(-1, 2) * MM
         if len(corners) == 0 or len(xy) == 0:
@@ -142,7 +151,7 @@ class Setup:
     def __init__(self, physics: Physics, output: OutputSection, quantities: tuple[str, ...]):
         self.physics, self.output, self.quantities = physics, output, quantities
         V = physics.V
-        self.node_xy = V.tabulate_dof_coordinates()[:, :2]
+        self.node_xy = V.tabulate_dof_coordinates()[:, :physics.mesh.geometry.dim]
         dofs = compat.cell_dofs(V)
         self.region_nodes: dict[str, np.ndarray] = {}
         for name, tags in REPORT_REGIONS.items():
@@ -166,11 +175,11 @@ class State:
 
     def von_mises(self, region: str) -> np.ndarray:
         """Von Mises stress (Pa) at the region's quadrature points on this rank."""
-        return self._cached("von_mises", region, lambda t: von_mises(t[:, :4]))
+        return self._cached("von_mises", region, lambda t: von_mises(t[:, : t.shape[1] // 2]))
 
     def hencky(self, region: str) -> tuple[np.ndarray, np.ndarray]:
         """(equivalent Hencky strain, J) at the region's quadrature points on this rank."""
-        return self._cached("hencky", region, lambda t: hencky_equivalent(t[:, 4:]))
+        return self._cached("hencky", region, lambda t: hencky_equivalent(t[:, t.shape[1] // 2:]))
 
     def _cached(self, name: str, region: str, of_tensors: Any) -> Any:
         if ("tensors", region) not in self._cache:

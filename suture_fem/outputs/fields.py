@@ -38,8 +38,9 @@ def cell_maxima(points: PointFields) -> dict[str, np.ndarray]:
         if len(cells) == 0:
             continue
         vals = points.tensors(tag)
-        fields["von_mises_pa"][cells] = von_mises(vals[:, :4]).reshape(len(cells), -1).max(axis=1)
-        fields["eptoeqv"][cells] = hencky_equivalent(vals[:, 4:])[0].reshape(len(cells), -1).max(axis=1)
+        half = vals.shape[1] // 2  # stress columns, then strain columns
+        fields["von_mises_pa"][cells] = von_mises(vals[:, :half]).reshape(len(cells), -1).max(axis=1)
+        fields["eptoeqv"][cells] = hencky_equivalent(vals[:, half:])[0].reshape(len(cells), -1).max(axis=1)
     return fields
 
 

@@ -24,6 +24,6 @@ class Usum(Quantity):
     def in_region(self, state: State, region: str) -> dict[str, Any]:
         """The region's maximum displacement magnitude (collective)."""
         nodes = self.setup.region_nodes[region]
-        u = self.setup.physics.u.x.array.reshape(-1, 2)
+        u = self.setup.physics.u.x.array.reshape(-1, self.setup.physics.mesh.geometry.dim)
         magnitude = np.linalg.norm(u[nodes], axis=1) / MM
         return {"usum_mm": global_max(state.comm, magnitude, self.setup.node_xy[nodes])}

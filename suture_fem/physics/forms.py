@@ -11,9 +11,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+import dolfinx.fem
 import ufl
 
 from suture_fem.physics import kinematics
+from suture_fem.support import compat
 
 
 def quadrature_degree(degree: int) -> int:
@@ -114,3 +116,11 @@ def restricted(form: Any, tags: tuple[int, ...]) -> Any:
         if integral.integral_type() == "cell" and ids is not None and ids <= wanted:
             kept.append(integral)
     return ufl.Form(kept)
+
+
+def face_area(ctx: FormContext, tag: int) -> float:
+    """The weighted area of a tagged face as meshed (m^2): in 3-D the polygonal end face is smaller than pi r_t^2."""
+    from mpi4py import MPI
+
+    local = dolfinx.fem.assemble_scalar(compat.form(ctx.weight * ctx.ds(tag)))
+    return float(ctx.w.function_space.mesh.comm.allreduce(local, op=MPI.SUM))

@@ -58,7 +58,7 @@ from suture_fem.physics.effects import (
 from suture_fem.physics.effects.cone_contact import ConeContact
 from suture_fem.physics.effects.contact import contact_term, penalty_stiffness
 from suture_fem.physics.effects.friction import ThreadFriction
-from suture_fem.physics.forms import FormContext, Terms, measures, pull_term, restricted
+from suture_fem.physics.forms import FormContext, Terms, face_area, measures, pull_term, restricted
 from suture_fem.physics.materials import Material, with_constants
 from suture_fem.scene.model import MaterialsSection, Scene
 from suture_fem.scene.schema import EffectsSection
@@ -84,7 +84,8 @@ class Physics:
         control: the pulled end's :class:`DisplacementControl` (``loading.control = "displacement"``; else None).
         bcs: Dirichlet conditions, in W (zero, except u_z = d on a rigid suture).
         energy: strain energy (J); end_displacement: 2 pi r-weighted integral of u_z over the pulled face.
-        outer_z_dofs: the outer surface's u_z dofs (where the reaction force is read); pull_area: pi r_t^2.
+        outer_z_dofs: the outer surface's u_z dofs (where the reaction force is read); pull_area: pi r_t^2 (3-D:
+            the end face's area as meshed, doubled).
         dx, x, F: the cell measure, the coordinates and the deformation gradient of ``u``.
         unknowns: what SNES solves for; dynamics: time integration (None without inertia).
         u_in_state: where ``u``'s dofs sit in ``state`` (mixed; None otherwise).
@@ -299,7 +300,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
         contact_energy=terms.potential.get("contact:thread"),
         end_displacement=kinematics.axial(u) * ctx.weight * ctx.ds(regions.Facet.PULL_FACE),
         outer_z_dofs=constraints.outer_z_dofs,
-        pull_area=math.pi * r_t**2,
+        pull_area=math.pi * r_t**2 if tagged.mesh.geometry.dim == 2 else face_area(ctx, regions.Facet.PULL_FACE),
         dx=ctx.dx,
         x=ctx.x,
         F=F,

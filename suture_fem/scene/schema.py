@@ -50,6 +50,8 @@ class GeometrySection(_Section):
     epidermis_mm: float = key(_length(1000.0), MM)
     margin_pull_mm: float = key(_length(1000.0), MM)
     margin_far_mm: float = key(_length(1000.0), MM)
+    dimension: int = key(Rule("int", lo=2, hi=3))
+    tissue_shape: str = key(Rule("str", choices=("cylinder", "slab")))
 
 
 @section("mesh")
@@ -93,6 +95,8 @@ class SolverSection(_Section):
     rtol: float = key(_pos(BALANCE_TOL))  # of a step's first residual: a larger one cannot balance the step
     atol: float = key(_pos(1.0), N)  # also <= BALANCE_TOL x the pull (scene/balance.py)
     linear_solver: str = key(Rule("str", choices=("mumps", "superlu_dist", "petsc")))
+    linear_method: str = key(Rule("str", choices=("auto", "direct", "gamg", "hypre")))
+    iterative_from_dofs: int = key(Rule("int", lo=0, hi=10**10))
     petsc_options: Params = key(Rule("table"))
     inertia_correction: bool = key(Rule("bool"))
     gent_limit_fraction: float = key(Rule("float", lo=0.0, hi=1.0, lo_open=True))

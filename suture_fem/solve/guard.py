@@ -64,7 +64,8 @@ class DomainGuard:
             materials: region -> material.
             cells: (region, local cells) for each part of the mesh to check, in order.
         """
-        points = compat.quadrature_points("triangle", quadrature_degree(degree))
+        cell = "tetrahedron" if mesh.geometry.dim == 3 else "triangle"
+        points = compat.quadrature_points(cell, quadrature_degree(degree))
         self.mesh, self.comm, self.materials = mesh, mesh.comm, materials
         self.checks: list[tuple[str, Limit, Any, np.ndarray]] = []
         self._x = compat.expression(x, points)
@@ -104,7 +105,9 @@ class DomainGuard:
         if worst is not None:
             bad, region, limit, value, (cell, ip) = worst
             xy = compat.eval_expression(self._x, self.mesh, np.array([cell], dtype=np.int32))
-            xy = xy.reshape(-1, 2)[ip] / regions.MM
+            xy = xy.reshape(-1, self.mesh.geometry.dim)[ip] / regions.MM
+            if len(xy) == 3:  # 3-D: (x, y, z) -> (r, axial)
+                xy = np.array([np.hypot(xy[0], xy[2]), xy[1]])
             local = Violation(region=region, quantity=limit, value=value, badness=bad,
                               r_mm=float(xy[0]), z_mm=float(xy[1]))
         found = [v for v in self.comm.allgather(local) if v is not None]

@@ -55,7 +55,7 @@ from petsc4py import PETSc
 from suture_fem.physics.effects.friction import settle
 from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.schema import SolverSection
-from suture_fem.solve import inertia
+from suture_fem.solve import inertia, linear
 from suture_fem.solve.guard import DomainGuard, Violation
 from suture_fem.solve.linearised import Linearised
 from suture_fem.solve.records import Timings
@@ -144,6 +144,7 @@ class NewtonSolver(Linearised):
             base["mat_mumps_icntl_14"] = 200  # extra workspace: stiff suture + soft tissue fill-in
             if o.inertia_correction and self.physics.comm.size > 1:  # the root front's inertia too (inertia.py)
                 base["mat_mumps_icntl_13"] = 1
+        self.linear_solver = linear.configure(o, self, base)  # or a Krylov method with algebraic multigrid
         base.update({str(k): v for k, v in o.petsc_options.items()})
         if base["pc_type"] == "cholesky":  # MUMPS then reads one triangle of A: declare the symmetry, for good
             self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
@@ -164,7 +165,7 @@ class NewtonSolver(Linearised):
     def next_linear_solver(self) -> str | None:
         """Switch to the next direct solver of the fallback order; None when none is left."""
         order = [s for s in FALLBACK_ORDER if s != "petsc" or self.physics.comm.size == 1]
-        rest = order[order.index(self.linear_solver) + 1:] if self.linear_solver in order else []
+        rest = order[order.index(self.linear_solver) + 1:] if self.linear_solver in order else order
         if not rest:
             return None
         log.warning("linear solver %s failed; falling back to %s", self.linear_solver, rest[0])
@@ -172,6 +173,7 @@ class NewtonSolver(Linearised):
         opts = PETSc.Options()
         opts[self.prefix + "pc_factor_mat_solver_type"] = self.linear_solver
         opts[self.prefix + "pc_type"] = "lu"  # the fallbacks factorise with LU
+        opts[self.prefix + "ksp_type"] = "preonly"  # after a Krylov method too
         pc = self.snes.getKSP().getPC()
         pc.reset()  # drop the failed factorisation (and its solver type)
         pc.setType("lu")

@@ -105,6 +105,16 @@ def gmsh_set_distance_sampling(field_tag: int, n: int) -> None:
         gmsh.model.mesh.field.setNumber(field_tag, "NumPointsPerCurve", n)
 
 
+def gmsh_distance_surfaces(field_tag: int, surfaces: list[int]) -> None:
+    """The surfaces of a gmsh Distance field ("FacesList" before gmsh 4.9, then "SurfacesList")."""
+    import gmsh
+
+    try:
+        gmsh.model.mesh.field.setNumbers(field_tag, "SurfacesList", surfaces)
+    except Exception:
+        gmsh.model.mesh.field.setNumbers(field_tag, "FacesList", surfaces)
+
+
 #: C compiler flags for every generated form and expression kernel. -O3 (not the default -O2) cuts the
 #: residual assembly of the paper scene by about a quarter and the Jacobian's by about a tenth
 #: (benchmarks/speed.py). No -ffast-math or -Ofast: they let the compiler assume that no value is NaN
@@ -155,10 +165,10 @@ def form(ufl_form: Any) -> Any:
 
 
 def quadrature_points(cell: str, degree: int) -> np.ndarray:
-    """Reference quadrature points of a rule exact to ``degree`` on a triangle."""
+    """Reference quadrature points of a rule exact to ``degree`` on a cell ("triangle" or "tetrahedron")."""
     import basix
 
-    pts, _ = basix.make_quadrature(basix.CellType.triangle, degree)
+    pts, _ = basix.make_quadrature(getattr(basix.CellType, cell), degree)
     return pts
 
 

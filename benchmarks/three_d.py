@@ -1,0 +1,184 @@
+"""Benchmark: the 3-D cylinder (geometry.dimension = 3) against the axisymmetric model, its cost, its solvers.
+
+Parts (each run is ``suture-fem run paper --set ...`` in its own process under GNU time, which gives its
+CPU seconds, summed over every MPI rank, and its peak resident memory, the largest of any one rank):
+
+* ``ladder``: the paper's tissue and hollow cones, P1, pulled to 4 N with a report at 1 N, at 1 cone
+  (and 4 cones on the two coarser rungs), on a 3-D mesh ladder: the [mesh] sizes times 4, 2.83 and 2
+  (each rung's sizes sqrt 2 smaller, about 2.8 times the tetrahedra), against the 2-D axisymmetric
+  model at P1 on the same sizes and at P2 one refinement finer (the 2-D reference). Quantities: USUM,
+  the thread end's displacement, the strain energy, the tissue's SEQV and EPTOEQV outside the rims
+  (``seqv_outside_rim_pa``, ``eptoeqv_outside_rim``) and their peaks.
+* ``ranks``: one rung (sizes times 2, 1 cone, 1 N) on 1 and 2 MPI ranks: CPU, wall, peak memory per rank.
+* ``solvers``: MUMPS against GAMG (and hypre) on two rungs at 0.25 N: the linear solve's seconds per
+  Newton iteration, the crossover of ``solver.linear_method = "auto"``.
+
+    .venv/bin/python benchmarks/three_d.py [--parts ladder ranks solvers] [--out benchmarks/out/three_d]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from suture_fem.support.io import write_json  # noqa: E402
+
+#: The 3-D scene's common keys: the outputs 3-D has, P1.
+BASE_3D = ["geometry.dimension=3", "mesh.degree=1", "output.critical_distance_mm=0",
+           'output.quantities=["usum","seqv","eptoeqv"]']
+BASE_2D = ["output.critical_distance_mm=0", 'output.quantities=["usum","seqv","eptoeqv"]']
+#: The [mesh] sizes at refinement 0 (defaults.toml): suture, rim, far.
+SIZES = (0.15, 0.05, 1.2)
+QUANTITIES = ("usum_mm", "thread_end_displacement_mm", "strain_energy_j")
+TISSUE = ("seqv_outside_rim_pa", "eptoeqv_outside_rim", "seqv_pa", "eptoeqv")
+
+
+def sized(factor: float) -> list[str]:
+    """The [mesh] sizes times ``factor``."""
+    s, r, f = (round(v * factor, 6) for v in SIZES)
+    return [f"mesh.size_suture_mm={s}", f"mesh.size_rim_mm={r}", f"mesh.size_far_mm={f}"]
+
+
+def run(label: str, overrides: list[str], tmp: Path, ranks: int = 1) -> dict:
+    """One run in its own process: results.json, CPU (all ranks), wall, peak memory (largest rank)."""
+    out = tmp / label.replace(" ", "_")
+    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "run", "paper", *[a for o in overrides for a in ("--set", o)],
+           "--no-pictures", "--out", str(out)]
+    if ranks > 1:
+        cmd = [shutil.which("mpirun"), "-n", str(ranks), "--allow-run-as-root", "--oversubscribe", *cmd]
+    stats = tmp / (label.replace(" ", "_") + ".time")
+    t0 = time.perf_counter()
+    proc = subprocess.run(["/usr/bin/time", "-f", "%U %S %M", "-o", str(stats), *cmd], capture_output=True,
+                          text=True, cwd=ROOT, env=dict(os.environ, OMP_NUM_THREADS="1"))
+    wall = time.perf_counter() - t0
+    user, system, peak_kb = stats.read_text().split()[-3:]
+    res = json.loads((out / "results.json").read_text()) if (out / "results.json").is_file() else {}
+    res.update(label=label, exit_code=proc.returncode, process_wall_s=wall, process_cpu_s=float(user) + float(system),
+               peak_memory_mb=int(peak_kb) / 1024, ranks=ranks, log_tail=proc.stderr.splitlines()[-20:])
+    print(f"  {label}: exit {proc.returncode}, {res.get('dofs', 0):,} dofs, {res['process_cpu_s']:.1f} s CPU, "
+          f"{wall:.1f} s wall, {res['peak_memory_mb']:.0f} MB", flush=True)
+    return res
+
+
+def at(res: dict, force: float) -> dict:
+    """The reported state at a force (empty when the run did not reach it)."""
+    return next((s for s in res.get("at_forces", []) if abs(s["force_n"] - force) < 1e-9), {})
+
+
+def summary(res: dict, force: float) -> dict:
+    """The compared quantities of one run at one force."""
+    s = at(res, force)
+    tissue = s.get("regions", {}).get("tissue", {})
+    diagnosis = res.get("diagnosis") or {}
+    return {**{q: s.get(q) for q in QUANTITIES}, **{f"tissue_{q}": tissue.get(q) for q in TISSUE},
+            "seqv_outside_rim_at_rz_mm": rz(tissue.get("seqv_outside_rim_pa_at_mm")),
+            "stop_cause": diagnosis.get("cause"), "load_reached_n": diagnosis.get("load_reached_n"),
+            "stop_detail": diagnosis.get("detail")}
+
+
+def rz(at_mm: list[float] | None) -> list[float] | None:
+    """A location as (r, z) mm: 3-D (x, y, z) with the thread along y -> (sqrt(x^2 + z^2), y)."""
+    if not at_mm:
+        return None
+    if len(at_mm) == 3:
+        return [round((at_mm[0] ** 2 + at_mm[2] ** 2) ** 0.5, 4), round(at_mm[1], 4)]
+    return [round(v, 4) for v in at_mm]
+
+
+def ladder(tmp: Path) -> list[dict]:
+    """The 3-D rungs and the 2-D references at 1 and 4 cones, 1 and 4 N."""
+    rows = []
+    for cones, factors in ((1, (4.0, 2.83, 2.0)), (4, (4.0, 2.83))):
+        common = [f"geometry.cones={cones}", "loading.force_n=4.0", "loading.report_forces_n=[1.0]"]
+        runs = [("2-D P2 ref. 1", run(f"2d_p2_r1_{cones}", [*BASE_2D, *common, "mesh.refinement=1"], tmp))]
+        runs += [(f"2-D P1 x{f:g}", run(f"2d_p1_{cones}_{f:g}", [*BASE_2D, *common, "mesh.degree=1", *sized(f)], tmp))
+                 for f in factors]
+        runs += [(f"3-D P1 x{f:g}", run(f"3d_p1_{cones}_{f:g}", [*BASE_3D, *common, *sized(f)], tmp))
+                 for f in factors]
+        for name, res in runs:
+            for force in (1.0, 4.0):
+                rows.append({"cones": cones, "model": name, "force_n": force, "dofs": res.get("dofs"),
+                             "cells": res.get("cells"), "cpu_s": res["process_cpu_s"],
+                             "peak_memory_mb": res["peak_memory_mb"], "newton_iterations": res.get("newton_iterations"),
+                             "status": res.get("status"), **summary(res, force)})
+    return rows
+
+
+def ranks(tmp: Path) -> list[dict]:
+    """One rung on 1 and 2 ranks."""
+    scene = [*BASE_3D, "geometry.cones=1", "loading.force_n=1.0", *sized(2.0)]
+    rows = []
+    for n in (1, 2):
+        res = run(f"ranks_{n}", scene, tmp, ranks=n)
+        rows.append({"ranks": n, "dofs": res.get("dofs"), "cpu_s": res["process_cpu_s"],
+                     "wall_s": res["process_wall_s"], "peak_memory_mb_per_rank": res["peak_memory_mb"],
+                     "newton_iterations": res.get("newton_iterations"), "timings_s": res.get("timings_s"),
+                     "usum_mm": res.get("usum_mm")})
+    return rows
+
+
+def solvers(tmp: Path) -> list[dict]:
+    """Direct against algebraic multigrid, seconds per linear solve, on two rungs at 0.25 N."""
+    rows = []
+    for f in (2.0, 1.41):
+        for method in ("direct", "gamg", "hypre"):
+            scene = [*BASE_3D, "geometry.cones=1", "loading.force_n=0.25", *sized(f),
+                     f'solver.linear_method="{method}"']
+            res = run(f"solver_{method}_{f:g}", scene, tmp)
+            t = res.get("timings_s", {})
+            its = max(res.get("newton_iterations") or 1, 1)
+            rows.append({"factor": f, "method": method, "dofs": res.get("dofs"), "cpu_s": res["process_cpu_s"],
+                         "peak_memory_mb": res["peak_memory_mb"], "newton_iterations": res.get("newton_iterations"),
+                         "linear_solve_s": t.get("linear_solve"), "per_iteration_s": (t.get("linear_solve") or 0) / its,
+                         "recorded_solver": res.get("linear_solver"), "fallbacks": res.get("linear_solver_fallbacks"),
+                         "usum_mm": res.get("usum_mm")})
+    return rows
+
+
+def table(rows: list[dict], keys: list[str]) -> str:
+    """A markdown table of the rows' keys (numbers to 4 significant digits)."""
+    def fmt(v: object) -> str:
+        return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    lines += ["| " + " | ".join(fmt(r.get(k)) for k in keys) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--parts", nargs="+", default=["ladder", "ranks", "solvers"])
+    parser.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "three_d"))
+    args = parser.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    parts = {"ladder": ladder, "ranks": ranks, "solvers": solvers}
+    columns = {
+        "ladder": ["cones", "model", "force_n", "dofs", "cpu_s", "peak_memory_mb", "status", *QUANTITIES,
+                   *[f"tissue_{q}" for q in TISSUE], "seqv_outside_rim_at_rz_mm", "stop_cause", "load_reached_n"],
+        "ranks": ["ranks", "dofs", "cpu_s", "wall_s", "peak_memory_mb_per_rank", "newton_iterations", "usum_mm"],
+        "solvers": ["factor", "method", "dofs", "cpu_s", "peak_memory_mb", "newton_iterations", "linear_solve_s",
+                    "per_iteration_s", "recorded_solver", "fallbacks", "usum_mm"],
+    }
+    with tempfile.TemporaryDirectory(prefix="three_d_") as tmp:
+        for name in args.parts:
+            print(f"{name}:", flush=True)
+            rows = parts[name](Path(tmp))
+            write_json(out / f"{name}.json", {"part": name, "rows": rows})
+            print(table(rows, columns[name]), flush=True)
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,171 @@
+"""The 3-D cylinder model: the axisymmetric half-section revolved half a turn about the thread, meshed by gmsh.
+
+Every piece of the 2-D model (the three tissue layers, the thread, each cone's outline) is revolved by
+pi about the thread's axis with the OpenCASCADE kernel and the solids are fragmented together, so the
+suture and the tissue share their interface nodes (tied) as in 2-D. The result is a half model:
+gmsh's (x, y, z) with the thread along y (the 2-D model's z, so the axial component keeps index 1),
+the solid in z <= 0 and the symmetry plane z = 0 (facet tag ``symmetry``). Regions and boundaries are
+classified as in 2-D: each revolved face is the image of a 2-D curve, so its sampled (r, y) extent,
+r = sqrt(x^2 + z^2), and the regions on its two sides say what it is. Sizes: the 2-D model's
+thresholds on gmsh Distance fields to the suture's surfaces and to the cone rims' circles. Lengths in
+millimetres; call on one rank only.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from suture_fem.geometry.gmsh_model import MeshSizes, _add_outline
+from suture_fem.geometry.regions import CELL_TAGS, FACET_TAGS, SUTURE, TISSUE, Cell, Facet
+from suture_fem.geometry.section import Geometry
+from suture_fem.support import compat
+
+#: The revolution's angle: half a turn (the symmetry plane z = 0 closes the half model).
+ANGLE = math.pi
+#: Elements per full turn of a curved surface (gmsh's curvature sizing): 6 on the thread's half circle.
+ELEMENTS_PER_TURN = 12
+#: Parametric samples per direction when a face's (r, y) extent is measured.
+SAMPLES = 7
+
+
+def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "suture3d") -> None:
+    """Build and mesh the 3-D half model of the cylinder in the current gmsh model (one rank only)."""
+    import gmsh
+
+    gmsh.model.add(name)
+    occ = gmsh.model.occ
+    g = geometry
+    sections = [
+        occ.addRectangle(0.0, 0.0, 0.0, g.r_hypodermis, g.length),
+        occ.addRectangle(g.r_hypodermis, 0.0, 0.0, g.r_dermis - g.r_hypodermis, g.length),
+        occ.addRectangle(g.r_dermis, 0.0, 0.0, g.r_epidermis - g.r_dermis, g.length),
+        occ.addRectangle(0.0, 0.0, 0.0, g.r_thread, g.z_end),
+        *[_add_outline(occ, cone.outline) for cone in g.cones],
+    ]
+    solids = []
+    for s in sections:
+        out = occ.revolve([(2, s)], 0, 0, 0, 0, 1, 0, ANGLE)
+        solids.append([(d, t) for d, t in out if d == 3])
+    _, pieces = occ.fragment(solids[0], [dt for group in solids[1:] for dt in group])
+    occ.synchronize()
+    owner = _owners(pieces, len(g.cones))
+    for region, tag in CELL_TAGS.items():
+        volumes = sorted(v for v, r in owner.items() if r == tag)
+        if volumes:
+            gmsh.model.addPhysicalGroup(3, volumes, tag)
+            gmsh.model.setPhysicalName(3, tag, region)
+    faces = classify_faces(g, owner)
+    for fname, tag in FACET_TAGS.items():
+        if faces[tag]:
+            gmsh.model.addPhysicalGroup(2, sorted(faces[tag]), tag)
+            gmsh.model.setPhysicalName(2, tag, fname)
+    _size_fields(g, sizes, faces)
+    gmsh.option.setNumber("Mesh.Algorithm", 6)
+    gmsh.model.mesh.generate(3)
+
+
+def _owners(pieces: list[list[tuple[int, int]]], n_cones: int) -> dict[int, int]:
+    """Volume -> cell tag, from the fragment map: the thread overrides the hypodermis, the cones override both."""
+    owner: dict[int, int] = {}
+    for i, region in enumerate([Cell.HYPODERMIS, Cell.DERMIS, Cell.EPIDERMIS]):
+        for _, tag in pieces[i]:
+            owner.setdefault(tag, region)
+    for _, tag in pieces[3]:
+        owner[tag] = Cell.THREAD
+    for k in range(n_cones):
+        for _, tag in pieces[4 + k]:
+            owner[tag] = Cell.CONE
+    return owner
+
+
+def extent(dim: int, tag: int) -> tuple[float, float, float, float, float]:
+    """(r_min, r_max, y_min, y_max, |z|_max) of an entity, sampled on its parametrisation (mm)."""
+    import gmsh
+
+    lo, hi = gmsh.model.getParametrizationBounds(dim, tag)
+    axes = [np.linspace(a, b, SAMPLES) for a, b in zip(lo, hi)]
+    params = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1)
+    xyz = np.asarray(gmsh.model.getValue(dim, tag, params.tolist())).reshape(-1, 3)
+    r = np.hypot(xyz[:, 0], xyz[:, 2])
+    y = xyz[:, 1]
+    return float(r.min()), float(r.max()), float(y.min()), float(y.max()), float(np.abs(xyz[:, 2]).max())
+
+
+def classify_faces(g: Geometry, owner: dict[int, int]) -> dict[int, set[int]]:
+    """Boundary and interface faces: the 2-D model's rules on each face's (r, y) extent, and the symmetry plane."""
+    import gmsh
+
+    tol = 1e-6 * max(g.z_end, 1.0)
+    out: dict[int, set[int]] = {tag: set() for tag in FACET_TAGS.values()}
+    for _, s in gmsh.model.getEntities(2):
+        r0, r1, y0, y1, zmax = extent(2, s)
+        up, _ = gmsh.model.getAdjacencies(2, s)
+        sides = {owner[v] for v in up}
+        if zmax < tol and len(up) == 1:
+            out[Facet.SYMMETRY].add(s)
+        elif abs(r0 - g.r_epidermis) < tol and abs(r1 - g.r_epidermis) < tol:
+            out[Facet.OUTER].add(s)
+        elif abs(y0 - g.z_end) < tol and abs(y1 - g.z_end) < tol:
+            out[Facet.PULL_FACE].add(s)
+        elif abs(y0 - g.length) < tol and abs(y1 - g.length) < tol and sides <= set(TISSUE):
+            out[Facet.TISSUE_PULL_FACE].add(s)
+        elif y1 < tol:
+            out[Facet.THREAD_FAR_FACE if sides <= set(SUTURE) else Facet.TISSUE_FAR_FACE].add(s)
+        elif len(up) == 1 and sides <= set(SUTURE) and y0 >= g.length - tol:
+            out[Facet.THREAD_FREE_SIDE].add(s)
+        if sides & set(SUTURE) and sides & set(TISSUE):
+            out[Facet.INTERFACE].add(s)
+    return out
+
+
+def rim_circles(g: Geometry) -> list[int]:
+    """The curves that are cone corners revolved: every sample at a corner's (r, y)."""
+    import gmsh
+
+    tol = 1e-6 * max(g.z_end, 1.0)
+    found = []
+    for _, c in gmsh.model.getEntities(1):
+        r0, r1, y0, y1, _ = extent(1, c)
+        if any(abs(r0 - rc) < tol and abs(r1 - rc) < tol and abs(y0 - zc) < tol and abs(y1 - zc) < tol
+               for rc, zc in g.corners):
+            found.append(c)
+    return found
+
+
+def _threshold(field: Any, source: int, size_min: float, size_max: float, dist_max: float) -> int:
+    t = field.add("Threshold")
+    field.setNumber(t, "InField", source)
+    field.setNumber(t, "SizeMin", size_min)
+    field.setNumber(t, "SizeMax", size_max)
+    field.setNumber(t, "DistMin", 0.0)
+    field.setNumber(t, "DistMax", dist_max)
+    return t
+
+
+def _size_fields(g: Geometry, sizes: MeshSizes, faces: dict[int, set[int]]) -> None:
+    """The 2-D thresholds: ``suture`` on the suture's surface growing to ``far``, ``rim`` at the cone rims."""
+    import gmsh
+
+    field = gmsh.model.mesh.field
+    suture_faces = sorted(faces[Facet.INTERFACE] | faces[Facet.THREAD_FREE_SIDE] | faces[Facet.PULL_FACE])
+    d_suture = field.add("Distance")
+    compat.gmsh_distance_surfaces(d_suture, suture_faces)
+    # points per parametric direction: the thread's length at half the suture size, within bounds
+    compat.gmsh_set_distance_sampling(d_suture, int(min(400, max(40, math.ceil(2.0 * g.z_end / sizes.suture)))))
+    fields = [_threshold(field, d_suture, sizes.suture, sizes.far, sizes.grading)]
+    circles = rim_circles(g)
+    if circles:
+        d_rim = field.add("Distance")
+        field.setNumbers(d_rim, "CurvesList", circles)
+        compat.gmsh_set_distance_sampling(d_rim, int(min(2000, max(40, math.ceil(4.0 * g.r_hypodermis / sizes.rim)))))
+        fields.append(_threshold(field, d_rim, sizes.rim, sizes.suture, 4.0 * sizes.suture))
+    combined = field.add("Min")
+    field.setNumbers(combined, "FieldsList", fields)
+    field.setAsBackgroundMesh(combined)
+    for option in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints"):
+        gmsh.option.setNumber(option, 0)
+    # the thread (r = 0.125 mm) is thinner than the suture size: its half circle still gets elements
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", ELEMENTS_PER_TURN)

@@ -1,0 +1,50 @@
+"""What a 3-D scene (``geometry.dimension = 3``) may call for; the rest is refused in one line before meshing.
+
+The 3-D model is the cylinder half model (:mod:`suture_fem.geometry.gmsh_3d`): the same materials, the
+tied suture-tissue interface, the pull as a force on the thread's end face, the static load ramp, and
+the USUM, SEQV and EPTOEQV maxima (with the reaction, energy and end displacement). What is built in
+2-D only is listed here with the key that asks for it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from suture_fem.support.errors import SceneError
+
+#: (scene key, the value a 3-D scene must have, what it would ask for). Each is refused in 3-D.
+UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
+    ("geometry.tissue_shape", "cylinder", 'the slab ("slab") is not built yet'),
+    ("geometry.cone_fillet_mm", 0.0, "rounded rims are meshed in 2-D only"),
+    ("mesh.geometry_degree", 1, "quadratic cells are built in 2-D only"),
+    ("effects.inertia", False, "inertia is built in 2-D only"),
+    ("effects.gravity", False, "gravity is built in 2-D only"),
+    ("effects.incompressibility", "displacement", "the mixed u-p formulation is built in 2-D only"),
+    ("effects.suture", "elastic", "the rigid suture is built in 2-D only"),
+    ("effects.thread_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
+    ("loading.control", "force", "displacement control is built in 2-D only"),
+    ("output.critical_distance_mm", 0.0, "the critical-distance average is built in 2-D only (set it to 0)"),
+    ("output.fields", False, "field files are written in 2-D only"),
+)
+
+
+def _value(scene: Any, dotted: str) -> Any:
+    section, name = dotted.split(".")
+    return getattr(getattr(scene, section), name)
+
+
+def check_three_d(scene: Any) -> None:
+    """SceneError (one line naming the key) for anything a 3-D scene asks for that is built in 2-D only."""
+    if scene.geometry.dimension != 3:
+        if scene.geometry.tissue_shape != "cylinder":
+            raise SceneError('scene key geometry.tissue_shape = "slab" needs geometry.dimension = 3 (and is not built '
+                             'yet); allowed in 2-D: "cylinder"')
+        return
+    for dotted, wanted, why in UNSUPPORTED:
+        value = _value(scene, dotted)
+        if value != wanted:
+            raise SceneError(f"scene key {dotted} = {value!r} with geometry.dimension = 3: {why}; allowed in 3-D: "
+                             f"{wanted!r}")
+    if "interface" in scene.output.quantities:
+        raise SceneError('scene key output.quantities with geometry.dimension = 3: "interface" is built in 2-D only; '
+                         'allowed in 3-D: any of "usum", "seqv", "eptoeqv"')

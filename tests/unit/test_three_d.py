@@ -1,0 +1,91 @@
+"""The 3-D model's pieces that need no solve: refusals before meshing, kinematics, stress measures, estimate."""
+
+from __future__ import annotations
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+import pytest
+import ufl
+from mpi4py import MPI
+
+from suture_fem.outputs.base import hencky_equivalent, von_mises
+from suture_fem.physics import kinematics
+from suture_fem.physics.three_d import UNSUPPORTED, check_three_d
+from suture_fem.scene import Scene
+from suture_fem.support import compat
+from suture_fem.support.errors import SceneError
+
+THREE_D = {"geometry.dimension": 3, "output.critical_distance_mm": 0.0, "output.quantities": ["usum", "seqv"]}
+#: A value of each key that a 3-D scene refuses.
+REFUSED = {
+    "geometry.tissue_shape": "slab", "geometry.cone_fillet_mm": 0.04, "mesh.geometry_degree": 2,
+    "effects.inertia": True, "effects.gravity": True, "effects.incompressibility": "mixed", "effects.suture": "rigid",
+    "effects.thread_interface": "sliding", "loading.control": "displacement", "output.critical_distance_mm": 0.1,
+    "output.fields": True,
+}
+
+
+def test_a_plain_3d_scene_passes_the_checks():
+    check_three_d(Scene.from_values(THREE_D))
+
+
+@pytest.mark.parametrize("key", [k for k, _, _ in UNSUPPORTED])
+def test_what_3d_does_not_build_is_refused_in_one_line_naming_the_key(key):
+    values = {**THREE_D, key: REFUSED[key]}
+    if key == "mesh.geometry_degree":
+        values["mesh.degree"] = 2
+    with pytest.raises(SceneError) as err:
+        check_three_d(Scene.from_values(values))
+    assert key in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_interface_output_and_the_slab_in_2d_are_refused():
+    with pytest.raises(SceneError, match="interface"):
+        check_three_d(Scene.from_values({**THREE_D, "output.quantities": ["usum", "interface"]}))
+    with pytest.raises(SceneError, match="geometry.tissue_shape"):
+        check_three_d(Scene.from_values({"geometry.tissue_shape": "slab"}))
+
+
+def test_3d_deformation_gradient_and_half_model_weight():
+    # u = A x, linear: F = I + A exactly; the weight 2 doubles the half model's volume
+    A = np.array([[0.1, -0.2, 0.05], [0.3, 0.0, -0.1], [0.02, 0.4, -0.3]])
+    mesh = dolfinx.mesh.create_unit_cube(MPI.COMM_SELF, 2, 2, 2)
+    u = dolfinx.fem.Function(compat.vector_space(mesh, 1))
+    u.interpolate(lambda x: A @ x)
+    x = ufl.SpatialCoordinate(mesh)
+    F = kinematics.deformation_gradient(u, x)
+    for i in range(3):
+        for j in range(3):
+            value = dolfinx.fem.assemble_scalar(dolfinx.fem.form(F[i, j] * ufl.dx(domain=mesh)))
+            assert value == pytest.approx(float(i == j) + A[i, j], abs=1e-12)
+    vol = dolfinx.fem.assemble_scalar(dolfinx.fem.form(kinematics.volume_weight(x) * ufl.dx(domain=mesh)))
+    assert vol == pytest.approx(2.0, rel=1e-12)
+
+
+def test_3d_stress_measures_equal_the_axisymmetric_ones_on_an_axisymmetric_state():
+    # (rr, zz, tt, rz) as the 3-D (xx, yy, zz, xy, yz, xz) of the same tensor, with the hoop direction as z
+    rng = np.random.default_rng(1)
+    s2 = rng.normal(size=(50, 4))
+    s3 = np.column_stack([s2[:, 0], s2[:, 1], s2[:, 2], s2[:, 3], np.zeros(50), np.zeros(50)])
+    np.testing.assert_allclose(von_mises(s3), von_mises(s2), rtol=1e-12)
+    m = rng.normal(size=(50, 2, 2)) * 0.3 + np.eye(2)
+    b2d = np.einsum("nij,nkj->nik", m, m)  # in-plane B = F F^T, positive definite
+    hoop = rng.uniform(0.5, 1.5, size=50)
+    b2 = np.column_stack([b2d[:, 0, 0], b2d[:, 1, 1], hoop, b2d[:, 0, 1]])
+    b3 = np.column_stack([b2[:, 0], b2[:, 1], b2[:, 2], b2[:, 3], np.zeros(50), np.zeros(50)])
+    for a, b in zip(hencky_equivalent(b3), hencky_equivalent(b2)):
+        np.testing.assert_allclose(a, b, rtol=1e-10)
+
+
+def test_the_3d_mesh_file_has_tetrahedra_and_the_symmetry_plane(tmp_path):
+    from suture_fem.geometry.mesh import write_msh
+    from suture_fem.scene.schema import GeometrySection, MeshSection
+
+    record = write_msh(GeometrySection(dimension=3, cones=1),
+                       MeshSection(size_suture_mm=0.6, size_rim_mm=0.2, size_far_mm=4.8), tmp_path / "m.msh")
+    assert record["tetrahedra"] > 0 and "triangles" not in record
+    text = (tmp_path / "m.msh").read_text()
+    for name in ("symmetry", "outer", "interface", "pull_face", "hypodermis", "cone"):
+        assert f'"{name}"' in text, name

@@ -95,9 +95,11 @@ def rigid_body_modes(space: Any) -> list[Any]:
         v = np.zeros((n_local, bs))
         v[:, a], v[:, b] = -x[:, b], x[:, a]
         fields.append(v)
+    carrier = dolfinx.fem.Function(space)  # kept alive while its vector is duplicated (dolfinx 0.9 frees it with it)
+    template = compat.function_vector(carrier)
     vectors = []
     for v in fields:
-        vec = compat.function_vector(dolfinx.fem.Function(space)).duplicate()
+        vec = template.duplicate()
         vec.array[: n_local * bs] = v.reshape(-1)
         vectors.append(vec)
     return vectors

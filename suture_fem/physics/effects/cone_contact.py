@@ -127,7 +127,7 @@ class ConeContact(SlipBound):
             proj = project(y[sel], outline)
             out["phi"][sel] = (proj.distance - self.phi0[sel]) * regions.MM
             out["g"][sel] = (proj.s - self.s0[sel]) * regions.MM
-            out["n"][sel], out["T"][sel] = proj.normal, proj.tangent
+            out["n"][sel], out["T"][sel] = proj.normal, proj.s_gradient  # T: the slip's gradient
             out["curvature"][sel] = proj.curvature / regions.MM  # 1/m
         return out
 

@@ -7,8 +7,9 @@ cone's mean axial displacement t_c (the mean u_z of its interface nodes; exactly
 suture). The contact search follows each tissue node a wherever it slides: at every residual and
 Jacobian evaluation its position relative to the cone, y = X_a + u_a - t_c e_z, is projected onto the
 outline (:func:`~suture_fem.geometry.outline.project`: the nearest point, arc length s, signed distance
-phi, positive outside, outward normal n and tangent T). The search's outline has each sharp corner off
-the thread rounded by a tenth of the suture's element size, less on a short edge
+phi, positive outside, outward normal n, and T the arc length's gradient: the tangent, stretched beside
+an arc). The search's outline has each sharp convex corner off the thread rounded by a tenth of the
+suture's element size, less on a short edge
 (:meth:`~suture_fem.geometry.section.Cone.rounded`; the fillets kept): at a sharp corner the normal
 jumps and a node pressed into it has two equilibria (the same scene gave 4.908 and 4.945 mm on one and
 two ranks before); the rounding vanishes with the mesh. Distances are measured from each node's reference
@@ -29,8 +30,9 @@ from the search (0 beside a straight segment), plus the friction's w t'(g) T T^T
 left out). A node's terms couple its two dofs with the axial dofs of its cone's interface nodes
 (through t_c), so the matrix pattern is set once, whatever the node slides past.
 
-Left out: the cone's own deformation in the search (its axial strain at 4 N is below 0.3 %, a few um
-over the cone; its radial strain from the contact pressure is below 1e-4). The terms are assembled by
+Left out: the cone's own deformation in the search (a cone passes at most 0.8 N in the runs of
+docs/contact.md: its wall's axial strain stays below 0.2 %, a few um over the cone; the peak contact
+pressure, about 1 MPa, strains it radially by under 1e-3). The terms are assembled by
 hand into the full residual and Jacobian before the solver's reduction, like the thread's friction
 (UFL forms cannot couple nodes that share no cell).
 """

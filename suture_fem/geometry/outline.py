@@ -30,7 +30,6 @@ class Projection:
     segment: np.ndarray
     corner: np.ndarray
     curvature: np.ndarray
-    s_gradient: np.ndarray
 
 
 def _line(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -90,14 +89,13 @@ def project(points: np.ndarray, outline: list) -> Projection:
     segment's outward normal. ``corner``: the nearest point is a corner (an end of its segment) off the point.
     ``curvature`` (1/mm): the signed distance's Hessian is curvature (I - n n^T): 0 beside a straight
     segment, +-1 / (distance to the centre) beside an arc (+ where the cone is convex), sign / distance off
-    a corner. ``s_gradient``: the arc length's gradient, T beside a segment, T R / (distance to the centre)
-    beside an arc, 0 off a corner.
+    a corner.
     """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     n = len(points)
     best = np.full(n, np.inf)
     out = {"s": np.zeros(n), "near": np.zeros((n, 2)), "tangent": np.zeros((n, 2)), "segment": np.zeros(n, int),
-           "end": np.zeros(n, bool), "curvature": np.zeros(n), "stretch": np.ones(n)}
+           "end": np.zeros(n, bool), "curvature": np.zeros(n)}
     start = 0.0
     for k, (kind, seg) in enumerate(outline):
         pts = [np.array(v, dtype=float) for v in seg]
@@ -109,11 +107,9 @@ def project(points: np.ndarray, outline: list) -> Projection:
         out["tangent"][closer], out["segment"][closer], out["end"][closer] = tangent[closer], k, end[closer]
         if kind == "arc":  # the distance to a circle bends by 1 / (distance to its centre): + convex, - concave
             convex = 1.0 if inside(pts[1][None, :], outline)[0] else -1.0
-            centre = np.maximum(np.linalg.norm(points - pts[1], axis=1), 1e-300)
-            out["curvature"][closer] = convex / centre[closer]
-            out["stretch"][closer] = (np.linalg.norm(pts[0] - pts[1]) / centre)[closer]  # ds/dy = T R / |y - c|
+            out["curvature"][closer] = convex / np.maximum(np.linalg.norm(points - pts[1], axis=1), 1e-300)[closer]
         else:
-            out["curvature"][closer], out["stretch"][closer] = 0.0, 1.0
+            out["curvature"][closer] = 0.0
         start += length
     poly = _vertices(outline)
     ccw = 0.5 * float(np.sum(poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1])) > 0
@@ -125,6 +121,5 @@ def project(points: np.ndarray, outline: list) -> Projection:
                       outward)
     corner = out["end"] & (best > ON_CORNER_MM)
     curvature = np.where(corner, sign / np.maximum(best, 1e-300), out["curvature"])
-    stretch = np.where(corner, 0.0, out["stretch"])  # off a corner the nearest point (and s) stays put
     return Projection(s=out["s"], distance=sign * best, normal=normal, tangent=out["tangent"], segment=out["segment"],
-                      corner=corner, curvature=curvature, s_gradient=stretch[:, None] * out["tangent"])
+                      corner=corner, curvature=curvature)

@@ -7,9 +7,8 @@ cone's mean axial displacement t_c (the mean u_z of its interface nodes; exactly
 suture). The contact search follows each tissue node a wherever it slides: at every residual and
 Jacobian evaluation its position relative to the cone, y = X_a + u_a - t_c e_z, is projected onto the
 outline (:func:`~suture_fem.geometry.outline.project`: the nearest point, arc length s, signed distance
-phi, positive outside, outward normal n, and T the arc length's gradient: the tangent, stretched beside
-an arc). The search's outline has each sharp convex corner off the thread rounded by a tenth of the
-suture's element size, less on a short edge
+phi, positive outside, outward normal n and tangent T). The search's outline has each sharp convex
+corner off the thread rounded by a tenth of the suture's element size, less on a short edge
 (:meth:`~suture_fem.geometry.section.Cone.rounded`; the fillets kept): at a sharp corner the normal
 jumps and a node pressed into it has two equilibria (the same scene gave 4.908 and 4.945 mm on one and
 two ranks before); the rounding vanishes with the mesh. Distances are measured from each node's reference
@@ -24,7 +23,11 @@ touches and nothing is pressed. With w the node's lumped 2 pi r-weighted area
 
 p = kappa <-phi> the contact pressure and g the total slip along the outline (a deformation theory, as
 for the thread). Coulomb's bound b is frozen during a Newton solve and moved to mu p between solves, as
-for the thread (:class:`~suture_fem.physics.effects.friction.SlipBound`). The Jacobian is the
+for the thread (:class:`~suture_fem.physics.effects.friction.SlipBound`). The friction acts along T, the
+tangent at the nearest point: exactly the slip's gradient beside a straight segment, and within phi / R
+of it beside an arc of radius R (off a corner the nearest point, and so s, stays put while T does not;
+taking the arc length's own gradient there left the friction's Hessian a term of order t / R short, and
+the Coulomb cones stopped at 0.2-0.3 N instead of reaching 4 N). The Jacobian is the
 penalty's exact Hessian where closed, kappa w (n n^T + phi d2 phi), the distance's curvature d2 phi
 from the search (0 beside a straight segment), plus the friction's w t'(g) T T^T (the turning of T
 left out). A node's terms couple its two dofs with the axial dofs of its cone's interface nodes
@@ -129,7 +132,7 @@ class ConeContact(SlipBound):
             proj = project(y[sel], outline)
             out["phi"][sel] = (proj.distance - self.phi0[sel]) * regions.MM
             out["g"][sel] = (proj.s - self.s0[sel]) * regions.MM
-            out["n"][sel], out["T"][sel] = proj.normal, proj.s_gradient  # T: the slip's gradient
+            out["n"][sel], out["T"][sel] = proj.normal, proj.tangent
             out["curvature"][sel] = proj.curvature / regions.MM  # 1/m
         return out
 

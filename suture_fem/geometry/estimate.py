@@ -109,12 +109,17 @@ MEMORY_SHARE = 0.8
 
 def check_fits(geometry: Geometry, mesh: MeshSection, memory_gib: float | None = None) -> MeshEstimate:
     """The estimate of a scene's mesh; SceneError (one line) when its solve cannot fit in memory."""
-    found = estimate(geometry, MeshSizes.from_section(mesh), mesh.degree)
+    return fits(estimate(geometry, MeshSizes.from_section(mesh), mesh.degree), mesh, memory_gib,
+                "(with the mesh.size_* keys)", "cells")
+
+
+def fits(found: MeshEstimate, mesh: MeshSection, memory_gib: float | None, keys: str, cells: str) -> MeshEstimate:
+    """``found``, or SceneError (one line naming ``mesh.refinement`` and ``keys``) when it cannot fit in memory."""
     available = machine_memory_gib() if memory_gib is None else memory_gib
     if found.memory_gib > MEMORY_SHARE * available:
         raise SceneError(
-            f"scene key mesh.refinement = {mesh.refinement} (with the mesh.size_* keys): the mesh would have about "
-            f"{found.cells:,} cells and {found.unknowns:,} unknowns, needing about {found.memory_gib:,.0f} GiB; "
+            f"scene key mesh.refinement = {mesh.refinement} {keys}: the mesh would have about {found.cells:,} "
+            f"{cells} and {found.unknowns:,} unknowns, needing about {found.memory_gib:,.0f} GiB; "
             f"this machine has {available:.0f} GiB (allowed: an estimate up to {MEMORY_SHARE:.0%} of it)"
         )
     return found

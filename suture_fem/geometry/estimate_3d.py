@@ -13,12 +13,11 @@ import math
 
 import numpy as np
 
-from suture_fem.geometry.estimate import MEMORY_SHARE, MeshEstimate, machine_memory_gib, size_grid
+from suture_fem.geometry.estimate import MeshEstimate, fits, size_grid
 from suture_fem.geometry.gmsh_3d import ELEMENTS_PER_TURN
 from suture_fem.geometry.gmsh_model import MeshSizes
 from suture_fem.geometry.section import Geometry
 from suture_fem.scene.schema import MeshSection
-from suture_fem.support.errors import SceneError
 
 #: gmsh's tetrahedron count over the integral estimate: gmsh gives 51,431 and 275,510 tetrahedra on the 1-cone
 #: hollow scene at twice and once the default sizes, and 168,066 at 4 cones, twice: 0.76, 0.60, 0.76 of the integral.
@@ -51,12 +50,5 @@ def estimate_3d(geometry: Geometry, sizes: MeshSizes, degree: int) -> MeshEstima
 
 def check_fits_3d(geometry: Geometry, mesh: MeshSection, memory_gib: float | None = None) -> MeshEstimate:
     """The estimate of a 3-D scene's mesh; SceneError (one line) when its solve cannot fit in memory."""
-    found = estimate_3d(geometry, MeshSizes.from_section(mesh), mesh.degree)
-    available = machine_memory_gib() if memory_gib is None else memory_gib
-    if found.memory_gib > MEMORY_SHARE * available:
-        raise SceneError(
-            f"scene key mesh.refinement = {mesh.refinement} (mesh.size_* keys, geometry.dimension = 3): the "
-            f"mesh would have about {found.cells:,} tetrahedra and {found.unknowns:,} unknowns, needing about "
-            f"{found.memory_gib:,.0f} GiB; this machine has {available:.0f} GiB (allowed: {MEMORY_SHARE:.0%})"
-        )
-    return found
+    return fits(estimate_3d(geometry, MeshSizes.from_section(mesh), mesh.degree), mesh, memory_gib,
+                "(mesh.size_* keys, geometry.dimension = 3)", "tetrahedra")

@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from suture_fem.geometry.gmsh_model import MeshSizes, _add_outline
-from suture_fem.geometry.regions import CELL_TAGS, FACET_TAGS, SUTURE, TISSUE, Cell, Facet
+from suture_fem.geometry.gmsh_model import MeshSizes, _add_outline, add_groups
+from suture_fem.geometry.regions import FACET_TAGS, SUTURE, TISSUE, Cell, Facet
 from suture_fem.geometry.section import Geometry
 from suture_fem.support import compat
 
@@ -52,16 +52,8 @@ def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "sutur
     _, pieces = occ.fragment(solids[0], [dt for group in solids[1:] for dt in group])
     occ.synchronize()
     owner = _owners(pieces, len(g.cones))
-    for region, tag in CELL_TAGS.items():
-        volumes = sorted(v for v, r in owner.items() if r == tag)
-        if volumes:
-            gmsh.model.addPhysicalGroup(3, volumes, tag)
-            gmsh.model.setPhysicalName(3, tag, region)
     faces = classify_faces(g, owner)
-    for fname, tag in FACET_TAGS.items():
-        if faces[tag]:
-            gmsh.model.addPhysicalGroup(2, sorted(faces[tag]), tag)
-            gmsh.model.setPhysicalName(2, tag, fname)
+    add_groups(3, owner, faces)
     _size_fields(g, sizes, faces)
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.generate(3)

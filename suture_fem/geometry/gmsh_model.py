@@ -84,17 +84,8 @@ def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture",
     for k in range(len(cones)):
         for _, tag in pieces[4 + k]:
             owner[tag] = Cell.CONE
-    for region, tag in CELL_TAGS.items():
-        surfaces = sorted(s for s, r in owner.items() if r == tag)
-        if surfaces:
-            gmsh.model.addPhysicalGroup(2, surfaces, tag)
-            gmsh.model.setPhysicalName(2, tag, region)
-
     facets = _classify_curves(g, owner)
-    for fname, tag in FACET_TAGS.items():
-        if facets[tag]:
-            gmsh.model.addPhysicalGroup(1, sorted(facets[tag]), tag)
-            gmsh.model.setPhysicalName(1, tag, fname)
+    add_groups(2, owner, facets)
     _size_fields(g, sizes, facets)
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.generate(2)
@@ -102,6 +93,21 @@ def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture",
         gmsh.model.mesh.setOrder(2)  # mid-side nodes on the model's curves: the arcs' nodes lie on the arcs
     if split_thread or split_cones:
         split_interfaces(owner, facets, thread=split_thread, cones=split_cones)
+
+
+def add_groups(dim: int, owner: dict[int, int], facets: dict[int, set[int]]) -> None:
+    """The physical groups: each region's entities of dimension ``dim`` and each facet tag's of ``dim - 1``."""
+    import gmsh
+
+    for region, tag in CELL_TAGS.items():
+        entities = sorted(e for e, r in owner.items() if r == tag)
+        if entities:
+            gmsh.model.addPhysicalGroup(dim, entities, tag)
+            gmsh.model.setPhysicalName(dim, tag, region)
+    for fname, tag in FACET_TAGS.items():
+        if facets[tag]:
+            gmsh.model.addPhysicalGroup(dim - 1, sorted(facets[tag]), tag)
+            gmsh.model.setPhysicalName(dim - 1, tag, fname)
 
 
 def split_interfaces(owner: dict[int, int], facets: dict[int, set[int]], thread: bool = True,

@@ -79,3 +79,15 @@ copy_host_settings() {
   done
   cp -L /etc/resolv.conf "$root/etc/resolv.conf" 2>/dev/null || true
 }
+
+# Every mount point at or under a folder, deepest first.
+mounted_under() { awk -v d="$1/" 'index($2 "/", d) == 1 {print $2}' /proc/mounts | sort -r; }
+
+# Remove a work folder, never through a mount: one still mounted under it keeps the folder (said so).
+remove_work() {
+  if [ -n "$(mounted_under "$1")" ]; then
+    say "NOT deleting $1: something is still mounted under it"
+  else
+    rm -rf --one-file-system "$1"
+  fi
+}

@@ -44,7 +44,7 @@ esac
 if [ "$(id -u)" -ne 0 ]; then
   echo "test-container: needs root (dockerd, mmdebstrap --mode=root)" >&2; exit 2
 fi
-. "$here/scripts/debian-root.sh"  # network_failure, host_mirrors, host_aptopts, copy_host_settings
+. "$here/scripts/debian-root.sh"  # network_failure, host_mirrors, ..., mounted_under, remove_work
 cache="${SUTURE_FEM_ROOT_CACHE:-/var/tmp/suture_fem-roots}"
 max_age_days="${SUTURE_FEM_ROOT_MAX_AGE_DAYS:-7}"
 data="$cache/docker"
@@ -71,7 +71,6 @@ machine_forbids() {
   grep -Eiq 'operation not permitted|permission denied|not supported|no such device|cgroup' "$1"
 }
 
-mounted_under() { awk -v d="$1/" 'index($2 "/", d) == 1 {print $2}' /proc/mounts | sort -r; }
 stop_engine() {
   [ -n "$dockerd_pid" ] || return 0
   local containerd_pid i m
@@ -99,11 +98,7 @@ cleanup() {
   trap - EXIT INT TERM
   stop_engine
   rm -rf --one-file-system "$run"
-  if [ -n "$(mounted_under "$work")" ]; then
-    say "NOT deleting $work: something is still mounted under it"
-  else
-    rm -rf --one-file-system "$work"
-  fi
+  remove_work "$work"
   say "total time $(took "$started") (exit code $rc)"
   exit "$rc"
 }

@@ -51,7 +51,7 @@ work="$(mktemp -d /var/tmp/suture_fem-release.XXXXXX)"
 root="$work/root"
 log="$work/build.log"
 
-. "$here/scripts/debian-root.sh"  # network_failure, host_mirrors, host_aptopts, copy_host_settings
+. "$here/scripts/debian-root.sh"  # network_failure, host_mirrors, ..., mounted_under, remove_work
 skip() {
   echo "================================================================================"
   echo "SKIPPED: Debian $release root could not be built: $1"
@@ -70,14 +70,10 @@ cleanup() {
     say "total time $(took "$started") (exit code $rc)"
     exit "$rc"
   fi
-  for m in $(awk -v w="$work" 'index($2, w) == 1 {print $2}' /proc/mounts | sort -r); do
+  for m in $(mounted_under "$work"); do
     umount -l "$m" 2>/dev/null || true
   done
-  if awk -v w="$work" 'index($2, w) == 1 {f=1} END {exit !f}' /proc/mounts; then
-    say "NOT deleting $work: something is still mounted under it"
-  else
-    rm -rf --one-file-system "$work"
-  fi
+  remove_work "$work"
   say "total time $(took "$started") (exit code $rc)"
   exit "$rc"
 }

@@ -40,6 +40,7 @@ from suture_fem.outputs.results import Results
 from suture_fem.outputs.snapshots import Snapshot
 from suture_fem.outputs.steps import Clock, LoadSteps, OnReport, output_folder
 from suture_fem.physics.effects import check_scene
+from suture_fem.physics.effects.friction import slip_laws
 from suture_fem.physics.problem import Physics, build_physics
 from suture_fem.physics.three_d import check_three_d
 from suture_fem.scene import Scene
@@ -219,7 +220,7 @@ class Model:
             physics.gravity_factor.value = 0.0
         if physics.rigid_displacement is not None:
             physics.rigid_displacement.value = 0.0
-        for law in physics.slip_laws():  # no contact pressure yet: no slip bound
+        for law in slip_laws(physics):  # no contact pressure yet: no slip bound
             law.bound[:] = 0.0
         if physics.control is not None:
             physics.control.set(0.0)

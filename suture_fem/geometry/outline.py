@@ -27,7 +27,6 @@ class Projection:
     distance: np.ndarray
     normal: np.ndarray
     tangent: np.ndarray
-    segment: np.ndarray
     corner: np.ndarray
     curvature: np.ndarray
 
@@ -94,17 +93,17 @@ def project(points: np.ndarray, outline: list) -> Projection:
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     n = len(points)
     best = np.full(n, np.inf)
-    out = {"s": np.zeros(n), "near": np.zeros((n, 2)), "tangent": np.zeros((n, 2)), "segment": np.zeros(n, int),
+    out = {"s": np.zeros(n), "near": np.zeros((n, 2)), "tangent": np.zeros((n, 2)),
            "end": np.zeros(n, bool), "curvature": np.zeros(n)}
     start = 0.0
-    for k, (kind, seg) in enumerate(outline):
+    for kind, seg in outline:
         pts = [np.array(v, dtype=float) for v in seg]
         near, s, tangent, length, end = _line(points, *pts) if kind == "line" else _arc(points, *pts)
         dist = np.linalg.norm(points - near, axis=1)
         closer = dist < best - 1e-9  # a tie (a corner shared by two segments) keeps the earlier segment
         best[closer] = dist[closer]
         out["s"][closer], out["near"][closer] = start + s[closer], near[closer]
-        out["tangent"][closer], out["segment"][closer], out["end"][closer] = tangent[closer], k, end[closer]
+        out["tangent"][closer], out["end"][closer] = tangent[closer], end[closer]
         if kind == "arc":  # the distance to a circle bends by 1 / (distance to its centre): + convex, - concave
             convex = 1.0 if inside(pts[1][None, :], outline)[0] else -1.0
             out["curvature"][closer] = convex / np.maximum(np.linalg.norm(points - pts[1], axis=1), 1e-300)[closer]
@@ -121,5 +120,5 @@ def project(points: np.ndarray, outline: list) -> Projection:
                       outward)
     corner = out["end"] & (best > ON_CORNER_MM)
     curvature = np.where(corner, sign / np.maximum(best, 1e-300), out["curvature"])
-    return Projection(s=out["s"], distance=sign * best, normal=normal, tangent=out["tangent"], segment=out["segment"],
+    return Projection(s=out["s"], distance=sign * best, normal=normal, tangent=out["tangent"],
                       corner=corner, curvature=curvature)

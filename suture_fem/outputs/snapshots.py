@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from suture_fem.physics.effects.friction import slip_laws
+
 
 def _value(constant: Any) -> Any:
     return None if constant is None else np.array(constant.value, copy=True)
@@ -48,7 +50,7 @@ class Snapshot:
             traction=_value(physics.traction),
             gravity=_value(physics.gravity_factor),
             rigid=_value(physics.rigid_displacement),
-            bound=tuple(law.bound.copy() for law in physics.slip_laws()) or None,
+            bound=tuple(law.bound.copy() for law in slip_laws(physics)) or None,
             history=tuple(f.x.array.copy() for f in (dyn.w_n, dyn.v_n, dyn.a_n)) if dyn is not None else None,
             end=physics.control.d if physics.control is not None else None,
         )
@@ -61,7 +63,7 @@ class Snapshot:
         _set(physics.gravity_factor, self.gravity)
         _set(physics.rigid_displacement, self.rigid)
         if self.bound is not None:
-            for law, bound in zip(physics.slip_laws(), self.bound):
+            for law, bound in zip(slip_laws(physics), self.bound):
                 law.bound = bound.copy()
         if self.end is not None:  # displacement control: where the pulled end was
             physics.control.set(self.end)

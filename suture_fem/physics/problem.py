@@ -131,14 +131,6 @@ class Physics:
     _derivatives: dict[str, Any] = field(default_factory=dict, repr=False)
     _kept: dict[str, Any] = field(default_factory=dict, repr=False)
 
-    def nodal_terms(self) -> list[Any]:
-        """The hand-assembled terms the solver adds (the thread's friction, the cones' contact), those present."""
-        return [t for t in (self.friction, self.cone_contact) if t is not None]
-
-    def slip_laws(self) -> list[Any]:
-        """The nodal terms with a Coulomb slip bound (:class:`~suture_fem.physics.effects.friction.SlipBound`)."""
-        return [t for t in self.nodal_terms() if t.mu > 0.0 or isinstance(t, ThreadFriction)]
-
     def form(self, name: str) -> Any:
         """The compiled dolfinx form of attribute `name` (residual, jacobian, energy, ...), compiled once."""
         if name not in self._compiled:

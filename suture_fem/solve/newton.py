@@ -52,7 +52,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from suture_fem.physics.effects.friction import settle
+from suture_fem.physics.effects.friction import nodal_terms, settle, slip_laws
 from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.schema import SolverSection
 from suture_fem.solve import inertia, linear
@@ -100,9 +100,7 @@ class NewtonSolver(Linearised):
         self.reduction = Reduction(problem, offset)
         self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
         self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
-        nodal = getattr(problem, "nodal_terms", None)  # a Coulomb thread's, the cones' contact: hand-assembled
-        self.nodal = nodal() if nodal is not None else [t for t in [getattr(problem, "friction", None)] if t]
-        self.laws = problem.slip_laws() if nodal is not None else self.nodal
+        self.nodal, self.laws = nodal_terms(problem), slip_laws(problem)  # hand-assembled: friction, cone contact
         for terms in self.nodal:
             terms.extend_pattern(self.A_full)
         self._assemble_full_jacobian()

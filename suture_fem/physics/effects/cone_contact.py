@@ -223,17 +223,14 @@ class ConeContact(SlipBound):
         self._add_blocks(A, np.zeros((self.pairs, 2, 2)))
 
     def profile(self, u_vec: Any) -> dict[str, np.ndarray]:
-        """Per pair (this rank's): gap, slip, pressure and friction shear (collective).
+        """Per pair (this rank's; collective): ``gap_mm`` and ``slip_mm``.
 
-        ``gap_mm`` is phi (positive: open), ``slip_mm`` g (how far along the cone's outline the tissue node has
-        moved, relative to the cone), ``pressure_pa`` -kappa phi where closed, ``shear_pa`` the friction
-        traction on the tissue along the outline.
+        The gap is phi (positive: open), the slip g (how far along the cone's outline the tissue node has
+        moved, relative to the cone). The interface output gives the pressure and shear from the tissue's
+        own residual.
         """
         found = self.search(u_vec)
-        shear = -self._law(found["g"])[0] if self.mu > 0.0 else np.zeros(self.pairs)
-        phi = found["phi"] if self.bilateral else np.minimum(found["phi"], 0.0)
-        return {"gap_mm": found["phi"] / regions.MM, "slip_mm": found["g"] / regions.MM,
-                "pressure_pa": -self.kappa * phi, "shear_pa": shear}
+        return {"gap_mm": found["phi"] / regions.MM, "slip_mm": found["g"] / regions.MM}
 
     def status(self, u_vec: Any) -> dict[str, int]:
         """How many cone-contact nodes are closed and stick, closed and slip, open (all ranks)."""

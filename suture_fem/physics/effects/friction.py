@@ -275,6 +275,16 @@ def _normal_form(physics: Any, kappa: float) -> Any:
     return compat.form(kappa * closed * v[0] * 2 * math.pi * x[0] * ds(int(Facet.TRACK)))
 
 
+def nodal_terms(problem: Any) -> list[Any]:
+    """The terms the solver assembles by hand for a problem: a Coulomb thread's, the cones' contact (those present)."""
+    return [t for t in (getattr(problem, "friction", None), getattr(problem, "cone_contact", None)) if t is not None]
+
+
+def slip_laws(problem: Any) -> list[SlipBound]:
+    """The nodal terms whose Coulomb slip bound is settled between Newton solves (a friction coefficient > 0)."""
+    return [t for t in nodal_terms(problem) if t.mu > 0.0]
+
+
 def open_pattern(A: Any) -> None:
     """Let hand-assembled terms add entries to A: new nonzeros, and rows owned by another rank."""
     A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)

@@ -164,7 +164,8 @@ def _dispatch(args: argparse.Namespace, comm: Any) -> int:
         if comm.rank == 0:
             path.parent.mkdir(parents=True, exist_ok=True)
             record = write_msh(scene.geometry, scene.mesh, path, scene.effects.thread_track, scene.effects.cone_contact)
-            print(f"suture-fem: wrote {path} ({record['triangles']} triangles) and {path.with_suffix('.json')}")
+            cells = "triangles" if "triangles" in record else "tetrahedra"
+            print(f"suture-fem: wrote {path} ({record[cells]} {cells}) and {path.with_suffix('.json')}")
         return 0
     if args.command == "run":
         return _run(args, scene, comm)

@@ -26,8 +26,8 @@ CALIBRATION = 0.7
 VERTICES_PER_CELL = 0.2
 P2_NODES_PER_CELL = 1.4
 #: Peak memory of one 3-D solve: a base plus a share per unknown. Measured (P1, MUMPS, one process,
-#: benchmarks/three_d.py): 387 MB with 30,921 dofs, 585 MB with 55,893, 723 MB with 65,652, i.e. about 10 kB
-#: per dof over the 2-D runs' 190 MB base; MUMPS' 3-D fill-in grows faster than the dofs, hence the margin.
+#: benchmarks/three_d.py): 387 MB with 30,921 dofs, 585 MB with 55,893, 723 MB with 65,652, i.e. 6.4, 7.1 and
+#: 8.1 kB per dof over the 2-D runs' 190 MB base; MUMPS' 3-D fill-in grows faster than the dofs, hence the margin.
 BASE_GIB = 0.2
 BYTES_PER_UNKNOWN = 12_000
 

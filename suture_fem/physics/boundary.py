@@ -28,7 +28,6 @@ from suture_fem.physics import constraints as cons
 from suture_fem.physics.constraints import Unknowns, classify_dofs, pinned_pressure, rigid_suture, supports
 from suture_fem.physics.effects import Effects, rigid_notes
 from suture_fem.physics.effects.friction import nodal_terms
-from suture_fem.physics.symmetry import supports_3d
 from suture_fem.support import compat
 
 
@@ -89,7 +88,7 @@ def scene_constraints(tagged: meshmod.TaggedMesh, effects: Effects, spaces: Any,
 
     ``spaces``: W, W_u and the state (physics.problem's spaces); ``control``: ``loading.control``.
     """
-    bcs, outer_z = (supports_3d if tagged.mesh.geometry.dim == 3 else supports)(tagged, spaces.W_u)
+    bcs, outer_z = supports(tagged, spaces.W_u)
     notes: dict[str, dict[str, Any]] = {}
     if effects.mixed:
         pin, notes["mixed"] = pinned_pressure(tagged, spaces.W)

@@ -101,24 +101,28 @@ def mark_facet_nodes(V: Any, fdim: int, facets: np.ndarray) -> np.ndarray:
 
 
 def supports(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[list[Any], np.ndarray]:
-    """The supports: u = 0 on the outer surface and u_r = 0 on the axis; and the outer surface's u_z dofs.
+    """The supports: u = 0 on the outer surface and a roller; and the outer surface's axial dofs.
 
+    The roller is u_r = 0 on the axis of the axisymmetric section, or, for the 3-D half model
+    (``geometry.dimension = 3``: the half of the cylinder on one side of the plane z = 0, which holds the
+    thread's axis y), u_z = 0 on that symmetry plane, where the whole solid's symmetric solution has it.
     Conditions are set per component, so the same code serves the vector space and the mixed space's
-    displacement subspace ``W_u``. Returns (bcs, outer u_z dofs); the latter locate the reaction force.
+    displacement subspace ``W_u``. Returns (bcs, outer axial dofs); the latter locate the reaction force.
     """
     mesh = tagged.mesh
+    gdim = mesh.geometry.dim
     fdim = mesh.topology.dim - 1
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)
     outer = meshmod.facets(tagged, regions.Facet.OUTER)
-    axis = meshmod.facets(tagged, regions.Facet.AXIS)
+    component, roller = (2, regions.Facet.SYMMETRY) if gdim == 3 else (0, regions.Facet.AXIS)
     zero = PETSc.ScalarType(0.0)
-    bcs = [
-        dolfinx.fem.dirichletbc(zero, dolfinx.fem.locate_dofs_topological(W_u.sub(c), fdim, outer), W_u.sub(c))
-        for c in (0, 1)
-    ]
-    bcs.append(dolfinx.fem.dirichletbc(zero, dolfinx.fem.locate_dofs_topological(W_u.sub(0), fdim, axis), W_u.sub(0)))
-    outer_z = dolfinx.fem.locate_dofs_topological(W_u.sub(1), fdim, outer)
-    return bcs, np.asarray(outer_z, dtype=np.int32)
+
+    def fixed(c: int, facets: np.ndarray) -> Any:
+        return dolfinx.fem.dirichletbc(zero, dolfinx.fem.locate_dofs_topological(W_u.sub(c), fdim, facets), W_u.sub(c))
+
+    bcs = [fixed(c, outer) for c in range(gdim)] + [fixed(component, meshmod.facets(tagged, roller))]
+    outer_axial = dolfinx.fem.locate_dofs_topological(W_u.sub(1), fdim, outer)
+    return bcs, np.asarray(outer_axial, dtype=np.int32)
 
 
 def thread_track(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, dict[str, int]]:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from suture_fem.scene.schema import OUTPUT_QUANTITIES
 from suture_fem.support.errors import SceneError
 
 #: (scene key, the value a 3-D scene must have, what it would ask for). Each is refused in 3-D.
@@ -22,6 +23,7 @@ UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
     ("effects.incompressibility", "displacement", "the mixed u-p formulation is built in 2-D only"),
     ("effects.suture", "elastic", "the rigid suture is built in 2-D only"),
     ("effects.thread_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
+    ("effects.cone_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
     ("loading.control", "force", "displacement control is built in 2-D only"),
     ("output.critical_distance_mm", 0.0, "the critical-distance average is built in 2-D only (set it to 0)"),
     ("output.fields", False, "field files are written in 2-D only"),
@@ -46,5 +48,6 @@ def check_three_d(scene: Any) -> None:
             raise SceneError(f"scene key {dotted} = {value!r} with geometry.dimension = 3: {why}; allowed in 3-D: "
                              f"{wanted!r}")
     if "interface" in scene.output.quantities:
+        allowed = ", ".join(f'"{q}"' for q in OUTPUT_QUANTITIES if q != "interface")
         raise SceneError('scene key output.quantities with geometry.dimension = 3: "interface" is built in 2-D only; '
-                         'allowed in 3-D: any of "usum", "seqv", "eptoeqv"')
+                         f"allowed in 3-D: any of {allowed}")

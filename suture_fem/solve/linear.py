@@ -63,9 +63,7 @@ def configure(options: Any, newton: Any, base: dict[str, Any]) -> str:
 
 
 def krylov_options(method: str) -> dict[str, Any]:
-    """The PETSc options of a Krylov method (under the solver's prefix); empty for "direct"."""
-    if method == "direct":
-        return {}
+    """The PETSc options of a Krylov method, "gamg" or "hypre" (under the solver's prefix)."""
     out: dict[str, Any] = {"ksp_type": "gmres", "ksp_gmres_restart": KRYLOV_RESTART, "ksp_rtol": KRYLOV_RTOL,
                            "ksp_atol": 0.0, "ksp_max_it": KRYLOV_MAX_IT,
                            "ksp_norm_type": "unpreconditioned"}
@@ -78,7 +76,7 @@ def krylov_options(method: str) -> dict[str, Any]:
 
 
 def rigid_body_modes(space: Any) -> list[Any]:
-    """The rigid-body modes of a vector space's displacement, as PETSc vectors of the space (orthonormalised)."""
+    """The rigid-body modes of a 3-D vector space's displacement, as PETSc vectors of the space."""
     mesh = space.mesh
     gdim = mesh.geometry.dim
     x = space.tabulate_dof_coordinates()[:, :gdim]
@@ -90,8 +88,7 @@ def rigid_body_modes(space: Any) -> list[Any]:
         v = np.zeros((n_local, bs))
         v[:, c] = 1.0
         fields.append(v)
-    pairs = [(0, 1)] if gdim == 2 else [(0, 1), (1, 2), (2, 0)]
-    for a, b in pairs:  # rotations in the (a, b) plane: u_a = -x_b, u_b = x_a
+    for a, b in [(0, 1), (1, 2), (2, 0)]:  # rotations in the (a, b) plane: u_a = -x_b, u_b = x_a
         v = np.zeros((n_local, bs))
         v[:, a], v[:, b] = -x[:, b], x[:, a]
         fields.append(v)
@@ -108,9 +105,10 @@ def rigid_body_modes(space: Any) -> list[Any]:
 def set_near_nullspace(A: Any, T: Any, space: Any) -> None:
     """Give the reduced matrix A = T^T A_full T the rigid-body modes restricted to the unknowns (x = T^T r).
 
-    Only for a plain displacement space (a mixed space's pressure has no rigid-body mode: GAMG's default then).
+    Only for a plain 3-D displacement space: a mixed space's pressure has no rigid-body mode, and of the
+    axisymmetric section's plane modes only the axial translation costs no energy (GAMG's default then).
     """
-    if space.dofmap.index_map_bs != space.mesh.geometry.dim:
+    if space.mesh.geometry.dim != 3 or space.dofmap.index_map_bs != 3:
         return
     reduced = []
     for full in rigid_body_modes(space):

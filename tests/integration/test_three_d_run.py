@@ -3,13 +3,15 @@ to its discretisation error, and the algebraic-multigrid solver finds the direct
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from suture_fem.geometry.estimate_3d import estimate_3d
 from suture_fem.geometry.gmsh_model import MeshSizes
 from suture_fem.geometry.section import Geometry
 from suture_fem.scene import Scene
-from tests.conftest import run_inprocess
+from tests.conftest import cli, run_inprocess, sets
 
 #: One full cone, coarse P1 tetrahedra (about 9,400 unknowns), 0.5 N with a report at 0.25 N: seconds.
 COARSE = ["geometry.cones=1", 'geometry.cone_kind="full"', "mesh.degree=1", "mesh.size_suture_mm=0.5",
@@ -72,3 +74,14 @@ def _parse(text: str) -> tuple[str, object]:
 
     key, value = text.split("=", 1)
     return key, tomllib.loads(f"v = {value}")["v"]
+
+
+def test_the_mesh_command_writes_the_3d_half_model(tmp_path):
+    out = tmp_path / "three_d.msh"
+    keys = ["geometry.dimension=3", "geometry.cones=1", "mesh.size_suture_mm=0.6", "mesh.size_rim_mm=0.2",
+            "mesh.size_far_mm=4.8", "output.critical_distance_mm=0", 'output.quantities=["usum"]']
+    proc = cli(["mesh", "paper", *sets(keys), "--out", str(out)])
+    assert proc.returncode == 0, proc.stderr
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["tetrahedra"] > 0 and f"({record['tetrahedra']} tetrahedra)" in proc.stdout
+    assert record["thread_track_split"] is False and "cone_surfaces_split" not in record

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import json
-
 import pytest
 
-from tests.conftest import cli, sets
+from tests.conftest import run_paper
 from tests.integration.test_three_d_run import COARSE_3D
 from tests.mpi.conftest import REL
 
@@ -16,10 +14,7 @@ QUANTITIES = ("usum_mm", "seqv_pa", "eptoeqv", "thread_end_displacement_mm", "re
 
 
 def _run(tmp_path_factory, ranks: int) -> dict:
-    out = tmp_path_factory.mktemp(f"three_d_{ranks}")
-    proc = cli(["run", "paper", *sets(COARSE_3D), "--no-pictures", "--out", str(out)], ranks=ranks, timeout=600)
-    assert proc.returncode == 0, proc.stderr
-    return json.loads((out / "results.json").read_text())
+    return run_paper(tmp_path_factory, f"three_d_{ranks}", COARSE_3D, ranks=ranks, timeout=600)
 
 
 def test_two_ranks_equal_serial_in_3d(tmp_path_factory):

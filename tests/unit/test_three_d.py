@@ -22,7 +22,8 @@ THREE_D = {"geometry.dimension": 3, "output.critical_distance_mm": 0.0, "output.
 REFUSED = {
     "geometry.tissue_shape": "slab", "geometry.cone_fillet_mm": 0.04, "mesh.geometry_degree": 2,
     "effects.inertia": True, "effects.gravity": True, "effects.incompressibility": "mixed", "effects.suture": "rigid",
-    "effects.thread_interface": "sliding", "loading.control": "displacement", "output.critical_distance_mm": 0.1,
+    "effects.thread_interface": "sliding", "effects.cone_interface": "frictionless",
+    "loading.control": "displacement", "output.critical_distance_mm": 0.1,
     "output.fields": True,
 }
 

@@ -28,7 +28,6 @@ same averages from the same array.
 from __future__ import annotations
 
 import functools
-import hashlib
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -310,25 +309,14 @@ def coarse_starts(field: CellField, lo: np.ndarray, hi: np.ndarray, radius: floa
     nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
     values = field.at(nodes.reshape(-1, 2)).reshape(nodes.shape[:2])
     inside = np.isfinite(values)
-    w, den = _coarse_weights(field, nodes, inside)
+    w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
     avg = _window_sum(w * np.where(inside, values, 0.0), _STENCIL, 0.0)
+    den = _window_sum(w, _STENCIL, 0.0)
     avg = np.where(inside & (den > 0), avg / np.maximum(den, 1e-300), -np.inf)
     around = [(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j]
     peak = np.all([avg >= shifted for shifted in _shifts(avg, around, -np.inf)], axis=0) & np.isfinite(avg)
     idx = np.flatnonzero(peak)
     return spread(nodes.reshape(-1, 2)[idx[np.argsort(-avg.reshape(-1)[idx], kind="stable")]], radius, count)
-
-
-def _coarse_weights(field: CellField, nodes: np.ndarray, inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The coarse view's 2 pi r weights at the nodes in the region and their window sums (``field.discs`` keeps 8)."""
-    key = hashlib.blake2b(nodes.tobytes() + np.packbits(inside).tobytes(), digest_size=20).digest()
-    kept = field.discs.coarse if field.discs is not None else {}
-    if key not in kept:
-        if len(kept) >= 8:
-            kept.pop(next(iter(kept)))
-        w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
-        kept[key] = (w, _window_sum(w, _STENCIL, 0.0))
-    return kept[key]
 
 
 def _shifts(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> list[np.ndarray]:

@@ -78,9 +78,8 @@ class DiscPoints:
     the least-squares system of the fit (``cells``, set by :class:`~suture_fem.outputs.disc.CellField`).
     Each centre keeps its centre's cells and its rule points' indices and cells (under 1 kB); at most
     ``limit`` centres are kept (beyond it, new ones are located every time). Prepared batches are kept
-    up to ``batch_bytes`` (the least recently used one goes first): on the paper scene at P1 r0 a later
-    answer asks for about 25 new batches per region (about 20 MB in all), mostly of centres kept already
-    (about 3,500 per region), so 32 MB per region keeps the last answer's batches.
+    up to ``batch_bytes`` (the least recently used one goes first; docs/api.md gives how many of a later
+    answer's batches an earlier answer had asked for, as measured).
     """
 
     def __init__(self, locate: Any, limit: int = 50_000, batch_bytes: int = 32 * 2**20):
@@ -90,8 +89,6 @@ class DiscPoints:
         self.cells: tuple[np.ndarray, np.ndarray, Any] | None = None
         self.batches: OrderedDict[bytes, tuple[Prepared, np.ndarray | None]] = OrderedDict()
         self._bytes = 0
-        #: the coarse view's weights and their window sums, by grid and the grid's nodes in the region
-        self.coarse: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
     def prepared_discs(self, centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray, row: np.ndarray,
                        centre: np.ndarray) -> tuple[Prepared, np.ndarray]:

@@ -26,7 +26,7 @@ from suture_fem.physics.problem import Physics
 from suture_fem.scene import Scene
 from suture_fem.support import compat
 from suture_fem.support.errors import SolveStopped
-from suture_fem.support.io import this_process, write_json
+from suture_fem.support.io import read_json, this_process, write_json
 from suture_fem.support.parallel import on_root
 
 
@@ -127,9 +127,7 @@ class Results(Mapping):
     @classmethod
     def read(cls, path: str | Path) -> Results:
         """The Results a run wrote (``results.json``), typed again: ``Results.read(out / "results.json").at_forces``."""
-        import json
-
-        return cls.from_dict(json.loads(Path(path).read_text()))
+        return cls.from_dict(read_json(path))
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Results:

@@ -34,7 +34,6 @@ class LawDeclaration:
         parameters: each parameter's rule (type and range; Pa unless the rule says otherwise).
         regions: where the law may be used: :data:`WHOLE_TISSUE` (the tissue layers) or :data:`SUTURE_REGION`.
         required: the parameters a table must give (the others default to 0).
-        unscaled: the parameters ``materials.tissue_scale`` does not multiply (dimensionless ones).
         check: a further check of the table (its parameters by name), raising SceneError; None: none.
     """
 
@@ -42,7 +41,6 @@ class LawDeclaration:
     parameters: Mapping[str, Rule]
     regions: str = WHOLE_TISSUE
     required: tuple[str, ...] = ()
-    unscaled: tuple[str, ...] = ()
     check: Callable[[str, Mapping[str, Any]], None] | None = field(default=None, compare=False)
 
     def check_table(self, region: str, params: Mapping[str, Any]) -> None:
@@ -91,7 +89,7 @@ declare(LawDeclaration(  # W = sum_i c_i0 (I1bar - 3)^i + sum_k (1/d_k) (J - 1)^
     check=_yeoh_check,
 ))
 declare(LawDeclaration(  # W = -(mu Jm / 2) ln(1 - (I1bar - 3) / Jm) + (1/d) ((J^2 - 1) / 2 - ln J)
-    "gent", {"mu": MODULUS, "jm": _pos(1e6), "inv_d": VOLUMETRIC}, required=("mu", "jm", "inv_d"), unscaled=("jm",),
+    "gent", {"mu": MODULUS, "jm": _pos(1e6), "inv_d": VOLUMETRIC}, required=("mu", "jm", "inv_d"),
 ))
 declare(LawDeclaration(  # Saint Venant-Kirchhoff: the suture (polypropylene)
     "svk", {"young": MODULUS, "poisson": Rule("float", lo=-1.0, hi=0.5, lo_open=True, hi_open=True)},

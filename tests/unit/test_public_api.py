@@ -52,7 +52,7 @@ def test_docs_api_lists_the_public_names_and_every_call_it_documents_exists():
 
     def has(cls, name):  # a class attribute, a dataclass field or an attribute __init__ sets
         fielded = hasattr(cls, "__dataclass_fields__") and name in {f.name for f in fields(cls)}
-        return hasattr(cls, name) or fielded or f"self.{name}" in inspect.getsource(cls)
+        return hasattr(cls, name) or fielded or re.search(rf"self\.{name}\b", inspect.getsource(cls)) is not None
 
     documented = {
         Scene: set(re.findall(r"(?<![.\w])[Ss]cene\.(\w+)", sections["Scene"])),

@@ -57,13 +57,17 @@ def exact(x, m):
 def test_observed_rates_match_theory(name, degree):
     material, tag = MATERIALS[name]
     runs = [manufactured_solve(MPI.COMM_WORLD, material, tag, exact, degree, n, L) for n in MESHES[degree]]
+    assert_rates(runs, degree, f"{name} P{degree}")
+
+
+def assert_rates(runs: list, degree: int, label: str) -> None:
+    """The finest pair's L2 and H1 rates are degree + 1 and degree, and the L2 error falls on every refinement."""
     h = [r.h for r in runs]
     l2 = observed_rates(h, [r.l2 for r in runs])
     h1 = observed_rates(h, [r.h1 for r in runs])
-    detail = f"{name} P{degree}: L2 rates {l2}, H1 rates {h1}"
+    detail = f"{label}: L2 rates {l2}, H1 rates {h1}"
     assert abs(l2[-1] - (degree + 1)) <= RATE_TOLERANCE, detail
     assert abs(h1[-1] - degree) <= RATE_TOLERANCE, detail
-    # the error falls on every refinement
     assert all(a > b for a, b in zip([r.l2 for r in runs], [r.l2 for r in runs][1:])), detail
 
 

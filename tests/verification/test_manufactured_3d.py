@@ -15,13 +15,12 @@ import pytest
 from mpi4py import MPI
 
 from suture_fem.physics.materials import Yeoh
-from suture_fem.studies.verification.manufactured import observed_rates
 from suture_fem.studies.verification.manufactured_3d import manufactured_solve_3d
+from tests.verification.test_manufactured import assert_rates
 
 L = 1e-3  # m
 MATERIAL = Yeoh(c=(400.0, 1400.0), inv_d=(1000.0, 1000.0))
 MESHES = (4, 8, 16)
-RATE_TOLERANCE = 0.1
 
 
 def exact(x, m):
@@ -36,13 +35,7 @@ def exact(x, m):
 
 def _rates(degree: int) -> None:
     runs = [manufactured_solve_3d(MPI.COMM_WORLD, MATERIAL, 1, exact, degree, n, L) for n in MESHES]
-    h = [r.h for r in runs]
-    l2 = observed_rates(h, [r.l2 for r in runs])
-    h1 = observed_rates(h, [r.h1 for r in runs])
-    detail = f"yeoh P{degree} 3-D: L2 rates {l2}, H1 rates {h1}"
-    assert abs(l2[-1] - (degree + 1)) <= RATE_TOLERANCE, detail
-    assert abs(h1[-1] - degree) <= RATE_TOLERANCE, detail
-    assert all(a.l2 > b.l2 for a, b in zip(runs, runs[1:])), detail
+    assert_rates(runs, degree, f"yeoh P{degree} 3-D")
 
 
 @pytest.mark.slow

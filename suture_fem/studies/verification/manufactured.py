@@ -53,15 +53,16 @@ def body_force(material: Material, exact: ExactField, x: Any) -> Any:
     return -ufl.as_vector([div_r, div_z])
 
 
-def _numpy_field(exact: ExactField) -> Callable[[np.ndarray], np.ndarray]:
+def numpy_field(exact: ExactField, dim: int = 2) -> Callable[[np.ndarray], np.ndarray]:
+    """The exact field for dolfinx's interpolation: the first ``dim`` coordinates of x (3, n) in, (dim, n) out."""
     def field(x: np.ndarray) -> np.ndarray:
-        return np.vstack([np.broadcast_to(c, x.shape[1]) for c in exact(x[:2], np)])
+        return np.vstack([np.broadcast_to(c, x.shape[1]) for c in exact(x[:dim], np)])
 
     return field
 
 
-def _weighted_norm(problem: Problem, integrand: Any) -> float:
-    """sqrt(int integrand 2 pi r dr dz) with the high quadrature degree (collective)."""
+def weighted_norm(problem: Problem, integrand: Any) -> float:
+    """sqrt(int integrand w dV), w the volume weight (2 pi r in the section, 2 in the 3-D half model; collective)."""
     dx = ufl.Measure("dx", domain=problem.mesh, metadata={"quadrature_degree": HIGH_QUADRATURE})
     form = dolfinx.fem.form(integrand * kinematics.volume_weight(problem.x) * dx)
     return math.sqrt(problem.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
@@ -71,8 +72,8 @@ def weighted_errors(problem: Problem, exact: ExactField) -> tuple[float, float]:
     """(L2, H1 seminorm) of u_h - u*, both weighted by 2 pi r; the H1 part includes (e_r / r)^2."""
     x = problem.x
     e = problem.u - ufl.as_vector(exact(x, ufl))
-    return (_weighted_norm(problem, ufl.inner(e, e)),
-            _weighted_norm(problem, ufl.inner(ufl.grad(e), ufl.grad(e)) + (e[0] / x[0]) ** 2))
+    return (weighted_norm(problem, ufl.inner(e, e)),
+            weighted_norm(problem, ufl.inner(ufl.grad(e), ufl.grad(e)) + (e[0] / x[0]) ** 2))
 
 
 def pressure_error(problem: Problem, material: Material, exact: ExactField) -> float:
@@ -80,7 +81,7 @@ def pressure_error(problem: Problem, material: Material, exact: ExactField) -> f
     x = problem.x
     J = ufl.variable(ufl.det(kinematics.deformation_gradient(ufl.as_vector(exact(x, ufl)), x)))
     p_star = ufl.diff(material.volumetric(J), J)
-    return _weighted_norm(problem, (problem.p - p_star) ** 2)
+    return weighted_norm(problem, (problem.p - p_star) ** 2)
 
 
 @dataclass
@@ -114,10 +115,10 @@ def manufactured_solve(comm: Any, material: Material, tag: int, exact: ExactFiel
 
     problem = build(mesh, mesh_tags, {tag: material}, degree, load, [
         (lambda x: (np.abs(x[0] - size) < tol) | (np.abs(x[1]) < tol) | (np.abs(x[1] - size) < tol), None,
-         _numpy_field(exact)),
+         numpy_field(exact)),
         (lambda x: np.abs(x[0]) < tol, 0, 0.0),
     ], formulation)
-    problem.set_displacement(_numpy_field(exact))
+    problem.set_displacement(numpy_field(exact))
     its = solve(problem)
     l2, h1 = weighted_errors(problem, exact)
     p_l2 = pressure_error(problem, material, exact) if problem.p is not None else None

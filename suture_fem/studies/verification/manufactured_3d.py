@@ -11,8 +11,6 @@ The 3-D weight (2, the half model's) multiplies both norms alike and drops out o
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
 from typing import Any
 
 import dolfinx
@@ -20,43 +18,26 @@ import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
 import ufl
-from mpi4py import MPI
 
 from suture_fem.physics import kinematics
 from suture_fem.physics.materials import Material, first_piola
-from suture_fem.studies.verification.manufactured import ManufacturedResult
+from suture_fem.studies.verification.manufactured import ExactField, ManufacturedResult, numpy_field, weighted_norm
 from suture_fem.studies.verification.problem import HIGH_QUADRATURE, Problem, build, solve
 
-#: An exact displacement written once for UFL and numpy: (x, m) -> [u_x, u_y, u_z], m = ``ufl`` or ``numpy``.
-ExactField3 = Callable[[Any, Any], list[Any]]
 
-
-def body_force_3d(material: Material, exact: ExactField3, x: Any) -> Any:
+def body_force_3d(material: Material, exact: ExactField, x: Any) -> Any:
     """B = -div P(F(u*)) (Cartesian: (div P)_i = dP_ij / dx_j), as a UFL vector."""
     u_star = ufl.as_vector(exact(x, ufl))
     return -ufl.div(first_piola(material, kinematics.deformation_gradient(u_star, x)))
 
 
-def _numpy_field(exact: ExactField3) -> Callable[[np.ndarray], np.ndarray]:
-    def field(x: np.ndarray) -> np.ndarray:
-        return np.vstack([np.broadcast_to(c, x.shape[1]) for c in exact(x[:3], np)])
-
-    return field
-
-
-def _norm(problem: Problem, integrand: Any) -> float:
-    dx = ufl.Measure("dx", domain=problem.mesh, metadata={"quadrature_degree": HIGH_QUADRATURE})
-    form = dolfinx.fem.form(integrand * kinematics.volume_weight(problem.x) * dx)
-    return math.sqrt(problem.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
-
-
-def errors_3d(problem: Problem, exact: ExactField3) -> tuple[float, float]:
+def errors_3d(problem: Problem, exact: ExactField) -> tuple[float, float]:
     """(L2, H1 seminorm) of u_h - u* (weighted by the half model's 2, which the rates do not see)."""
     e = problem.u - ufl.as_vector(exact(problem.x, ufl))
-    return _norm(problem, ufl.inner(e, e)), _norm(problem, ufl.inner(ufl.grad(e), ufl.grad(e)))
+    return weighted_norm(problem, ufl.inner(e, e)), weighted_norm(problem, ufl.inner(ufl.grad(e), ufl.grad(e)))
 
 
-def manufactured_solve_3d(comm: Any, material: Material, tag: int, exact: ExactField3, degree: int, n: int,
+def manufactured_solve_3d(comm: Any, material: Material, tag: int, exact: ExactField, degree: int, n: int,
                           size: float) -> ManufacturedResult:
     """Solve the manufactured problem on [0, size]^3, n^3 small cubes (6 tetrahedra each); u = u* on the boundary."""
     mesh = dolfinx.mesh.create_box(comm, [np.zeros(3), np.full(3, size)], [n, n, n], dolfinx.mesh.CellType.tetrahedron)
@@ -70,8 +51,8 @@ def manufactured_solve_3d(comm: Any, material: Material, tag: int, exact: ExactF
         return ufl.inner(body_force_3d(material, exact, x), v) * weight * dxh
 
     problem = build(mesh, mesh_tags, {tag: material}, degree, load,
-                    [(lambda x: np.full(x.shape[1], True), None, _numpy_field(exact))])
-    problem.set_displacement(_numpy_field(exact))
+                    [(lambda x: np.full(x.shape[1], True), None, numpy_field(exact, 3))])
+    problem.set_displacement(numpy_field(exact, 3))
     its = solve(problem)
     l2, h1 = errors_3d(problem, exact)
     total = comm.allreduce(mesh.topology.index_map(tdim).size_local)

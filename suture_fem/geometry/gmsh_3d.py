@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from suture_fem.geometry.gmsh_model import MeshSizes, _add_outline, add_groups
-from suture_fem.geometry.regions import FACET_TAGS, SUTURE, TISSUE, Cell, Facet
+from suture_fem.geometry.gmsh_model import MeshSizes, add_groups, owners, section_surfaces
+from suture_fem.geometry.regions import FACET_TAGS, SUTURE, TISSUE, Facet
 from suture_fem.geometry.section import Geometry
 from suture_fem.support import compat
 
@@ -38,39 +38,18 @@ def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "sutur
     gmsh.model.add(name)
     occ = gmsh.model.occ
     g = geometry
-    sections = [
-        occ.addRectangle(0.0, 0.0, 0.0, g.r_hypodermis, g.length),
-        occ.addRectangle(g.r_hypodermis, 0.0, 0.0, g.r_dermis - g.r_hypodermis, g.length),
-        occ.addRectangle(g.r_dermis, 0.0, 0.0, g.r_epidermis - g.r_dermis, g.length),
-        occ.addRectangle(0.0, 0.0, 0.0, g.r_thread, g.z_end),
-        *[_add_outline(occ, cone.outline) for cone in g.cones],
-    ]
     solids = []
-    for s in sections:
+    for s in section_surfaces(occ, g):
         out = occ.revolve([(2, s)], 0, 0, 0, 0, 1, 0, ANGLE)
         solids.append([(d, t) for d, t in out if d == 3])
     _, pieces = occ.fragment(solids[0], [dt for group in solids[1:] for dt in group])
     occ.synchronize()
-    owner = _owners(pieces, len(g.cones))
+    owner = owners(pieces, len(g.cones))
     faces = classify_faces(g, owner)
     add_groups(3, owner, faces)
     _size_fields(g, sizes, faces)
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.generate(3)
-
-
-def _owners(pieces: list[list[tuple[int, int]]], n_cones: int) -> dict[int, int]:
-    """Volume -> cell tag, from the fragment map: the thread overrides the hypodermis, the cones override both."""
-    owner: dict[int, int] = {}
-    for i, region in enumerate([Cell.HYPODERMIS, Cell.DERMIS, Cell.EPIDERMIS]):
-        for _, tag in pieces[i]:
-            owner.setdefault(tag, region)
-    for _, tag in pieces[3]:
-        owner[tag] = Cell.THREAD
-    for k in range(n_cones):
-        for _, tag in pieces[4 + k]:
-            owner[tag] = Cell.CONE
-    return owner
 
 
 def extent(dim: int, tag: int) -> tuple[float, float, float, float, float]:

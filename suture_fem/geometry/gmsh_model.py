@@ -64,26 +64,10 @@ def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture",
     gmsh.model.add(name)
     occ = gmsh.model.occ
     g = geometry
-    tissue = [
-        occ.addRectangle(0.0, 0.0, 0.0, g.r_hypodermis, g.length),
-        occ.addRectangle(g.r_hypodermis, 0.0, 0.0, g.r_dermis - g.r_hypodermis, g.length),
-        occ.addRectangle(g.r_dermis, 0.0, 0.0, g.r_epidermis - g.r_dermis, g.length),
-    ]
-    thread = occ.addRectangle(0.0, 0.0, 0.0, g.r_thread, g.z_end)
-    cones = [_add_outline(occ, cone.outline) for cone in g.cones]
-    inputs = [(2, s) for s in tissue + [thread] + cones]
+    inputs = [(2, s) for s in section_surfaces(occ, g)]
     _, pieces = occ.fragment(inputs[:1], inputs[1:])
     occ.synchronize()
-
-    owner: dict[int, int] = {}
-    for i, region in enumerate([Cell.HYPODERMIS, Cell.DERMIS, Cell.EPIDERMIS]):
-        for _, tag in pieces[i]:
-            owner.setdefault(tag, region)
-    for _, tag in pieces[3]:
-        owner[tag] = Cell.THREAD  # the thread overrides the hypodermis it was cut from
-    for k in range(len(cones)):
-        for _, tag in pieces[4 + k]:
-            owner[tag] = Cell.CONE
+    owner = owners(pieces, len(g.cones))
     facets = _classify_curves(g, owner)
     add_groups(2, owner, facets)
     _size_fields(g, sizes, facets)
@@ -93,6 +77,34 @@ def build_gmsh_model(geometry: Geometry, sizes: MeshSizes, name: str = "suture",
         gmsh.model.mesh.setOrder(2)  # mid-side nodes on the model's curves: the arcs' nodes lie on the arcs
     if split_thread or split_cones:
         split_interfaces(owner, facets, thread=split_thread, cones=split_cones)
+
+
+def section_surfaces(occ: Any, g: Geometry) -> list[int]:
+    """The half-section's pieces as OCC surfaces: the three tissue layers, the thread, each cone (this order)."""
+    return [
+        occ.addRectangle(0.0, 0.0, 0.0, g.r_hypodermis, g.length),
+        occ.addRectangle(g.r_hypodermis, 0.0, 0.0, g.r_dermis - g.r_hypodermis, g.length),
+        occ.addRectangle(g.r_dermis, 0.0, 0.0, g.r_epidermis - g.r_dermis, g.length),
+        occ.addRectangle(0.0, 0.0, 0.0, g.r_thread, g.z_end),
+        *[_add_outline(occ, cone.outline) for cone in g.cones],
+    ]
+
+
+def owners(pieces: list[list[tuple[int, int]]], n_cones: int) -> dict[int, int]:
+    """Entity -> cell tag, from the fragment map of :func:`section_surfaces`' pieces (or their revolutions).
+
+    The thread overrides the hypodermis it was cut from; the cones override both.
+    """
+    owner: dict[int, int] = {}
+    for i, region in enumerate([Cell.HYPODERMIS, Cell.DERMIS, Cell.EPIDERMIS]):
+        for _, tag in pieces[i]:
+            owner.setdefault(tag, region)
+    for _, tag in pieces[3]:
+        owner[tag] = Cell.THREAD
+    for k in range(n_cones):
+        for _, tag in pieces[4 + k]:
+            owner[tag] = Cell.CONE
+    return owner
 
 
 def add_groups(dim: int, owner: dict[int, int], facets: dict[int, set[int]]) -> None:

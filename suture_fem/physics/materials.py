@@ -329,7 +329,7 @@ def register(cls: type[MaterialLaw]) -> type[MaterialLaw]:
     """
     missing = [name for name in ("declaration", "of", "constants", "energy", "limits", "usage", "shear_modulus",
                                  "bulk_modulus") if not hasattr(cls, name)]
-    if cls.declaration.regions == WHOLE_TISSUE:
+    if not missing and cls.declaration.regions == WHOLE_TISSUE:
         missing += [name for name in ("isochoric", "volumetric", "bulk_modulus_form") if not hasattr(cls, name)]
     if missing:
         raise TypeError(f"material law {cls.__name__} lacks {', '.join(missing)}")

@@ -44,6 +44,7 @@ def test_the_half_model_balances_the_whole_pull_and_says_it_is_a_half_model(thre
 @pytest.mark.slow
 def test_3d_agrees_with_the_axisymmetric_model(three_d, tmp_path):
     two_d = run_inprocess("paper", COARSE, tmp_path)
+    assert [a["force_n"] for a in three_d["at_forces"]] == [b["force_n"] for b in two_d["at_forces"]]
     for a, b in zip(three_d["at_forces"], two_d["at_forces"]):
         for q in ("usum_mm", "thread_end_displacement_mm", "strain_energy_j"):
             assert a[q] == pytest.approx(b[q], rel=COARSE_AGREEMENT), q

@@ -220,8 +220,8 @@ class Model:
             physics.gravity_factor.value = 0.0
         if physics.rigid_displacement is not None:
             physics.rigid_displacement.value = 0.0
-        for law in slip_laws(physics):  # no contact pressure yet: no slip bound
-            law.bound[:] = 0.0
+        for law in slip_laws(physics):  # no contact pressure yet: no slip bound, no multiplier
+            law.reset()
         if physics.control is not None:
             physics.control.set(0.0)
 

@@ -2,10 +2,10 @@
 
 A :class:`Snapshot` copies what the outputs of a state read and the load ramp changes: the unknowns
 (ghosts included), the pull's traction, the weight's factor, a rigid suture's axial motion, a
-Coulomb thread's frozen bound, a moved end's displacement and, with inertia, the time history (w_n,
-v_n, a_n). Restoring one makes every output, picture and sensitivity of that state what it was when
-the state was reported (:meth:`suture_fem.model.Model.reports`): the same arrays, so the same numbers,
-bit for bit.
+Coulomb law's frozen bound and an augmented Lagrangian's multipliers, a moved end's displacement and,
+with inertia, the time history (w_n, v_n, a_n). Restoring one makes every output, picture and
+sensitivity of that state what it was when the state was reported (:meth:`suture_fem.model.Model.reports`):
+the same arrays, so the same numbers, bit for bit.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ class Snapshot:
     traction: Any
     gravity: Any
     rigid: Any
-    bound: tuple[np.ndarray, ...] | None
+    bound: tuple[tuple[np.ndarray, ...], ...] | None
     history: tuple[np.ndarray, ...] | None
     end: float | None = None
 
@@ -50,7 +50,7 @@ class Snapshot:
             traction=_value(physics.traction),
             gravity=_value(physics.gravity_factor),
             rigid=_value(physics.rigid_displacement),
-            bound=tuple(law.bound.copy() for law in slip_laws(physics)) or None,
+            bound=tuple(law.frozen() for law in slip_laws(physics)) or None,
             history=tuple(f.x.array.copy() for f in (dyn.w_n, dyn.v_n, dyn.a_n)) if dyn is not None else None,
             end=physics.control.d if physics.control is not None else None,
         )
@@ -63,8 +63,8 @@ class Snapshot:
         _set(physics.gravity_factor, self.gravity)
         _set(physics.rigid_displacement, self.rigid)
         if self.bound is not None:
-            for law, bound in zip(slip_laws(physics), self.bound):
-                law.bound = bound.copy()
+            for law, kept in zip(slip_laws(physics), self.bound):
+                law.thaw(kept)
         if self.end is not None:  # displacement control: where the pulled end was
             physics.control.set(self.end)
         if self.history is not None:

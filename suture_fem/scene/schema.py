@@ -148,6 +148,9 @@ class EffectsSection(_Section):
     thread_interface: str = key(Rule("str", choices=("tied", *TRACK_INTERFACES)))
     cone_interface: str = key(Rule("str", choices=("tied", *TRACK_INTERFACES)))
     contact_penalty: float = key(_pos(1e8))
+    cone_contact_method: str = key(Rule("str", choices=("augmented", "penalty")))
+    augmented_penalty: float = key(_pos(1e8))
+    contact_penetration_mm: float = key(_pos(1.0), MM)
     friction_coefficient: float = key(Rule("float", lo=0.0, hi=2.0))
     friction_slip_mm: float = key(_pos(1.0), MM)
 

@@ -2,7 +2,8 @@
 
 Checked here: the mesh split (the tissue keeps no node of a cone's surface but the junctions with a tied
 thread), the cone terms' gradient and Hessian against finite differences of their potential (the search
-moving the nearest point as the state moves), the load shares summing to the pull for each model, the
+moving the nearest point as the state moves; the augmented Lagrangian's multipliers included), the
+augmented Lagrangian meeting its penetration target with the answer independent of its penalty, the load shares summing to the pull for each model, the
 tissue's own force balance where it has lifted off a cone, the order of the lift (tied < Coulomb <
 frictionless, the rigid suture), 2 ranks equal to serial, and the refused combinations.
 """
@@ -76,7 +77,9 @@ def test_the_cone_terms_are_the_derivatives_of_their_potential():
 
     (ep, _), (em, _) = at(1.0), at(-1.0)
     assert (ep - em) / 2 == pytest.approx(grad.dot(step), rel=1e-5)  # the friction's gradient included
-    contact.bound[:] = 0.0  # the penalty alone: its Hessian is exact (the friction's turning tangent is left out)
+    contact.bound[:] = 0.0  # the contact alone: its Hessian is exact (the friction's turning tangent is left out)
+    assert contact.augmented  # the default: the augmented Lagrangian's terms, with multipliers as between solves
+    contact.multiplier[:] = 2e4 * rng.random(contact.pairs)  # Pa: pressed pairs, some also a little outside
     (_, bp), (_, bm) = at(1.0), at(-1.0)
     x0.copy(vec)
     import dolfinx.fem.petsc
@@ -128,6 +131,21 @@ def test_the_lift_grows_from_tied_through_coulomb_to_frictionless_with_the_rigid
         usum[model], cone[model] = rec["usum_mm"], rec["load_share_n"]["cone_1"]
     assert usum["tied"] < usum["coulomb"] < usum["frictionless"]
     assert cone["tied"] > cone["coulomb"] > cone["frictionless"] > 0.0  # friction lets the cone carry more
+
+
+def test_the_augmented_lagrangian_meets_its_target_whatever_its_penalty(tmp_path_factory, frictionless):
+    """The multipliers bring every pressed node within the target of the cone; the answer does not follow kappa."""
+    target = 1.5e-4  # mm: effects.contact_penetration_mm's default
+    soft = _run(tmp_path_factory, "augmented10", _cones("frictionless", "effects.augmented_penalty=10"))
+    for res in (frictionless, soft):
+        assert res["effects"]["interfaces"]["cone_contact_method"] == "augmented"
+        assert res["effects"]["interfaces"]["contact_penetration_target_mm"] == target
+        for rec in res["at_forces"]:
+            assert rec["interface"]["cone_contact"]["cones"]["cone_1"]["penetration_max_mm"] <= target
+    a, b = frictionless["at_forces"][-1], soft["at_forces"][-1]
+    # a pressed node's place is known to the target either way, so USUM to a few targets (kappa x3 apart)
+    assert b["usum_mm"] == pytest.approx(a["usum_mm"], abs=3 * target)
+    assert b["load_share_n"]["cone_1"] == pytest.approx(a["load_share_n"]["cone_1"], rel=1e-2)
 
 
 def test_two_ranks_give_the_serial_frictionless_cone(tmp_path_factory, frictionless):

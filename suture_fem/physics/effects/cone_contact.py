@@ -42,6 +42,7 @@ hand into the full residual and Jacobian before the solver's reduction, like the
 
 from __future__ import annotations
 
+import logging
 import math
 from typing import Any
 
@@ -50,6 +51,7 @@ import dolfinx.fem
 import dolfinx.fem.petsc
 import numpy as np
 import ufl
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem.geometry import mesh as meshmod
@@ -57,9 +59,15 @@ from suture_fem.geometry import regions
 from suture_fem.geometry.outline import project
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
-from suture_fem.physics.effects.friction import SlipBound, global_dofs, open_pattern
+from suture_fem.physics.effects.friction import Aitken, SlipBound, global_dofs, open_pattern
 from suture_fem.support import compat
 
+log = logging.getLogger("suture_fem")
+
+#: The largest Aitken factor of the multipliers' update: Uzawa's plain update (1) converges at a rate
+#: k / (k + kappa) where the tissue's local stiffness k exceeds kappa (0.96 per update measured at a
+#: single cone's apex); the factor extrapolates such a mode up to 1 / (1 - rate).
+UZAWA_OMEGA_MAX = 50.0
 #: The search rounds each sharp corner of a cone (off the thread) by this fraction of the suture's element size.
 CORNER_ROUNDING = 0.1
 
@@ -76,9 +84,13 @@ class ConeContact(SlipBound):
     """
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
-                 slip_m: float):
-        """``state``: the state's PETSc vector; ``pairs``: :func:`cone_pairs`'s arrays."""
+                 slip_m: float, target_m: float | None = None):
+        """``state``: the state's PETSc vector; ``pairs``: :func:`cone_pairs`'s arrays.
+
+        ``target_m``: the augmented Lagrangian's largest penetration (m); None: the pure penalty.
+        """
         self.comm, self.kappa, self.model = comm, float(kappa), model
+        self.augmented, self.target = target_m is not None, float(target_m or 0.0)
         self.bilateral = model == "sliding"
         self.mu = float(mu) if model == "coulomb" else 0.0
         self.slip = float(slip_m)
@@ -93,6 +105,8 @@ class ConeContact(SlipBound):
             start = project(self.X[sel], outline)
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
         self.bound = np.zeros(self.pairs)
+        self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
+        self.augmentations = 0  # multiplier updates so far
         self._state = state
         self.start()
         index_all = np.concatenate([self.dofs.ravel(), *self.cone_dofs]).astype(PETSc.IntType)
@@ -105,10 +119,13 @@ class ConeContact(SlipBound):
     def on(cls, physics: Any, section: Any, kappa: float) -> ConeContact:
         """The cones' contact of a built Physics (its cone surfaces split); its numbers join the record.
 
-        ``section``: the scene's ``[effects]`` (``cone_interface``, ``friction_coefficient``, ``friction_slip_mm``).
+        ``section``: the scene's ``[effects]`` (``cone_interface``, ``cone_contact_method``, ``friction_coefficient``,
+        ``friction_slip_mm``, ``contact_penetration_mm``); ``kappa``: the method's penalty stiffness (Pa/m).
         """
+        target = section.contact_penetration_mm * regions.MM if augmented(section) else None
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
-                      section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM)
+                      section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
+                      target)
         physics.notes.setdefault("interfaces", {}).update(contact.notes())
         return contact
 
@@ -136,17 +153,60 @@ class ConeContact(SlipBound):
             out["curvature"][sel] = proj.curvature / regions.MM  # 1/m
         return out
 
-    def _normal_force(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(q, k): the penalty's dE/dphi per pair (N/m... times w: N) and its derivative (closed: kappa w)."""
+    def _pressure(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(p, closed) per pair: p = lambda - kappa phi, clipped at 0 unless bilateral (Pa); closed: p > 0 (or all)."""
+        trial = self.multiplier - self.kappa * phi
         if self.bilateral:
-            return self.kappa * self.weight * phi, self.kappa * self.weight
-        closed = phi < 0.0
-        return self.kappa * self.weight * np.where(closed, phi, 0.0), self.kappa * self.weight * closed
+            return trial, np.ones(self.pairs, dtype=bool)
+        closed = trial > 0.0
+        return np.where(closed, trial, 0.0), closed
 
     def pressure(self) -> np.ndarray:
-        """The contact pressure per pair now (Pa): -kappa phi where closed (sliding: negative where it holds on)."""
+        """The contact pressure per pair now (Pa; sliding: negative where it holds the tissue on)."""
+        return self._pressure(self.search(self._state)["phi"])[0]
+
+    def update(self, tolerance: float) -> bool:
+        """Between Newton solves: the Coulomb bound (:meth:`SlipBound.update`), then the multipliers (collective).
+
+        True when both held before the update: the friction to ``tolerance`` (N), and every pressed node
+        (sliding: every node) within the target of the cone's surface, either side. The multipliers move to the
+        pressure now only when the penetration is above the target, so a settled state is the solution
+        of the terms it was solved with.
+        """
+        settled = super().update(tolerance) if self.mu > 0.0 else True
+        if not self.augmented:
+            return settled
         phi = self.search(self._state)["phi"]
-        return -self.kappa * (phi if self.bilateral else np.minimum(phi, 0.0))
+        p, closed = self._pressure(phi)
+        depth = np.where(closed, np.abs(phi), 0.0)  # pressed nodes off the surface, inside or (lambda > 0) outside
+        worst = float(self.comm.allreduce(float(np.max(depth, initial=0.0)), op=MPI.MAX))
+        log.debug("cones' contact: %d nodes pressed, the farthest %.3g mm off its cone (target %.3g mm)",
+                  self.comm.allreduce(int(np.count_nonzero(closed))), worst / regions.MM, self.target / regions.MM)
+        if worst <= self.target:
+            return settled
+        r = p - self.multiplier  # Uzawa's update moves lambda to p; Aitken's factor speeds its slow modes up
+        trial = self.multiplier + self._uzawa.factor(r * self.weight) * r
+        self.multiplier = trial if self.bilateral else np.maximum(trial, 0.0)
+        self.augmentations += 1
+        return False
+
+    def start(self) -> None:
+        """Forget the fixed points' histories (a new load step's solve)."""
+        super().start()
+        self._uzawa = Aitken(self.comm, UZAWA_OMEGA_MAX)
+
+    def frozen(self) -> tuple[np.ndarray, ...]:
+        """Copies of the Coulomb bound and the multipliers: a state's part, kept with it."""
+        return self.bound.copy(), self.multiplier.copy()
+
+    def thaw(self, kept: tuple[np.ndarray, ...]) -> None:
+        """Set what :meth:`frozen` returned."""
+        self.bound, self.multiplier = kept[0].copy(), kept[1].copy()
+
+    def reset(self) -> None:
+        """At rest: no pressure, no slip bound, no multiplier."""
+        self.bound[:] = 0.0
+        self.multiplier[:] = 0.0
 
     def _law(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         th = np.tanh(g / self.slip)
@@ -155,8 +215,8 @@ class ConeContact(SlipBound):
     def potential(self, u_vec: Any) -> float:
         """The penalty's and (Coulomb) the frozen-bound friction's potential (J; collective)."""
         found = self.search(u_vec)
-        phi = found["phi"] if self.bilateral else np.minimum(found["phi"], 0.0)
-        value = 0.5 * self.kappa * self.weight * phi**2
+        p, _ = self._pressure(found["phi"])  # w (p^2 - lambda^2) / (2 kappa): its phi-derivative is -w p
+        value = 0.5 * self.weight * (p**2 - self.multiplier**2) / self.kappa
         if self.mu > 0.0:
             x = np.abs(found["g"]) / self.slip
             value = value + self.weight * self.bound * self.slip * (x + np.log1p(np.exp(-2.0 * x)) - math.log(2.0))
@@ -165,13 +225,13 @@ class ConeContact(SlipBound):
     def _gradient_hessian(self, u_vec: Any) -> tuple[np.ndarray, np.ndarray]:
         """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2; the arcs' curvature term left out)."""
         found = self.search(u_vec)
-        q, k = self._normal_force(found["phi"])
+        p, closed = self._pressure(found["phi"])
         n, T = found["n"], found["T"]
-        grad = q[:, None] * n
-        # d2(phi^2 / 2) = n n^T + phi d2(phi), d2(phi) = curvature (I - n n^T) (0 beside a straight segment)
+        grad = -(self.weight * p)[:, None] * n
+        # d2E = kappa w n n^T (closed) - w p d2(phi), d2(phi) = curvature (I - n n^T) (0 beside a straight segment)
         nn = n[:, :, None] * n[:, None, :]
-        bend = (found["phi"] * found["curvature"])[:, None, None] * (np.eye(2)[None, :, :] - nn)
-        hess = k[:, None, None] * (nn + bend)
+        bend = (-self.weight * p * found["curvature"])[:, None, None] * (np.eye(2)[None, :, :] - nn)
+        hess = (self.kappa * self.weight * closed)[:, None, None] * nn + bend
         if self.mu > 0.0:
             t, dt = self._law(found["g"])
             grad += (self.weight * t)[:, None] * T
@@ -235,7 +295,7 @@ class ConeContact(SlipBound):
     def status(self, u_vec: Any) -> dict[str, int]:
         """How many cone-contact nodes are closed and stick, closed and slip, open (all ranks)."""
         found = self.search(u_vec)
-        closed = np.ones(self.pairs, dtype=bool) if self.bilateral else found["phi"] < 0.0
+        closed = self._pressure(found["phi"])[1]
         stick = closed & (np.abs(found["g"]) < 2.0 * self.slip) if self.mu > 0.0 else np.zeros(self.pairs, bool)
         counts = np.array([stick.sum(), (closed & ~stick).sum(), (~closed).sum()])
         stick_n, slip_n, open_n = (int(v) for v in self.comm.allreduce(counts))
@@ -248,7 +308,10 @@ class ConeContact(SlipBound):
                                "cone_contact_search": "each tissue node's nearest point on its cone's outline, the "
                                                       "outline moved by the cone's mean axial displacement, at "
                                                       "every residual and Jacobian evaluation",
-                               "cone_contact_corner_radius_mm": self.corner_mm}
+                               "cone_contact_corner_radius_mm": self.corner_mm,
+                               "cone_contact_method": "augmented" if self.augmented else "penalty"}
+        if self.augmented:
+            out["contact_penetration_target_mm"] = self.target / regions.MM
         if self.model == "coulomb":
             out.update({"cone_friction_coefficient": self.mu, "friction_slip_mm": self.slip / regions.MM})
         return out
@@ -257,6 +320,15 @@ class ConeContact(SlipBound):
         """Free the scatter and its local vector."""
         self._scatter.destroy()
         self._local.destroy()
+
+
+def augmented(section: Any) -> bool:
+    """The cones' contact of ``section`` (a scene's ``[effects]``) is an augmented Lagrangian's.
+
+    Only a unilateral one: the bilateral ("sliding") cones keep the pure penalty (their multipliers'
+    first update stopped the paper scene's ramp below 0.1 N, at one cone and at four, docs/contact.md).
+    """
+    return section.cone_contact_method == "augmented" and section.cone_interface != "sliding"
 
 
 def cone_pairs(physics: Any) -> dict[str, Any]:

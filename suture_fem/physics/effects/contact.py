@@ -30,14 +30,18 @@ from suture_fem.physics.forms import FormContext, Terms
 from suture_fem.scene.model import Scene
 
 
-def penalty_stiffness(scene: Scene, suture_size_mm: float) -> float:
-    """Kappa (Pa/m): ``effects.contact_penalty`` x the hypodermis's initial bulk modulus / the suture's element size."""
+def penalty_stiffness(scene: Scene, suture_size_mm: float, factor: float | None = None) -> float:
+    """Kappa (Pa/m): ``factor`` (``effects.contact_penalty``) x the hypodermis's initial bulk modulus / element size.
+
+    The element size is the suture's; ``factor`` None takes ``effects.contact_penalty``.
+    """
     hyp = scene.materials.hypodermis.params
     inv_d = hyp.get("inv_d1", hyp.get("inv_d", 0.0))
     bulk = 2.0 * float(inv_d) * scene.materials.tissue_scale
     if bulk <= 0.0:  # an incompressible hypodermis (1/d = 0, mixed): its initial shear modulus instead
         bulk = 2.0 * float(hyp.get("c10", hyp.get("mu", 1.0))) * scene.materials.tissue_scale
-    return scene.effects.contact_penalty * bulk / (suture_size_mm * MM)
+    factor = scene.effects.contact_penalty if factor is None else factor
+    return factor * bulk / (suture_size_mm * MM)
 
 
 def contact_term(ctx: FormContext, kappa: float, terms: Terms) -> None:

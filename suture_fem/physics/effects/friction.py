@@ -84,8 +84,23 @@ class SlipBound:
 
     def start(self) -> None:
         """Forget the fixed point's history (a new load step's solve)."""
-        self._last: np.ndarray | None = None
-        self._omega = 1.0
+        self._aitken = Aitken(self.comm)
+
+    def update(self, tolerance: float) -> bool:
+        """One update between Newton solves; True when the law held to ``tolerance`` (N) before it (collective)."""
+        return self.update_bound() <= tolerance
+
+    def frozen(self) -> tuple[np.ndarray, ...]:
+        """Copies of what the updates between solves hold (the bound): a state's part, kept with it."""
+        return (self.bound.copy(),)
+
+    def thaw(self, kept: tuple[np.ndarray, ...]) -> None:
+        """Set what :meth:`frozen` returned."""
+        self.bound = kept[0].copy()
+
+    def reset(self) -> None:
+        """At rest: no contact pressure yet, so no slip bound."""
+        self.bound[:] = 0.0
 
     def residual(self) -> float:
         """How far the friction forces are from Coulomb's law: the 2-norm over the track of w |mu p - bound| (N)."""
@@ -105,14 +120,33 @@ class SlipBound:
         """
         r = self._gap_forces()
         norm = math.sqrt(self.comm.allreduce(float(np.sum(r * r))))
-        if self._last is not None:
+        omega = self._aitken.factor(r)
+        self.bound = np.maximum(self.bound + omega * r / np.maximum(self.weight, 1e-300), 0.0)
+        return norm
+
+
+class Aitken:
+    """Aitken's relaxation factor of a fixed-point iteration x <- x + omega r (Irons and Tuck 1969).
+
+    omega_k = -omega_{k-1} r_{k-1} . (r_k - r_{k-1}) / |r_k - r_{k-1}|^2, kept in [OMEGA_MIN, ``largest``];
+    the first update is plain (omega = 1).
+    """
+
+    def __init__(self, comm: Any, largest: float = OMEGA_MAX):
+        """``comm``: the residuals' communicator (each rank holds its part)."""
+        self.comm, self.largest = comm, largest
+        self._last: np.ndarray | None = None
+        self._omega = 1.0
+
+    def factor(self, r: np.ndarray) -> float:
+        """The factor for this update's residual ``r`` (this rank's part; collective)."""
+        if self._last is not None and len(self._last) == len(r):
             dr = r - self._last
             num, den = self.comm.allreduce(np.array([float(np.sum(self._last * dr)), float(np.sum(dr * dr))]))
             if den > 0.0:
-                self._omega = float(np.clip(-self._omega * num / den, OMEGA_MIN, OMEGA_MAX))
+                self._omega = float(np.clip(-self._omega * num / den, OMEGA_MIN, self.largest))
         self._last = r
-        self.bound = np.maximum(self.bound + self._omega * r / np.maximum(self.weight, 1e-300), 0.0)
-        return norm
+        return self._omega
 
 
 class ThreadFriction(SlipBound):
@@ -281,8 +315,8 @@ def nodal_terms(problem: Any) -> list[Any]:
 
 
 def slip_laws(problem: Any) -> list[SlipBound]:
-    """The nodal terms whose Coulomb slip bound is settled between Newton solves (a friction coefficient > 0)."""
-    return [t for t in nodal_terms(problem) if t.mu > 0.0]
+    """The nodal terms updated between Newton solves: a Coulomb slip bound (mu > 0), an augmented Lagrangian."""
+    return [t for t in nodal_terms(problem) if t.mu > 0.0 or getattr(t, "augmented", False)]
 
 
 def open_pattern(A: Any) -> None:
@@ -321,7 +355,10 @@ def _pairs(physics: Any, track: np.ndarray, thread: np.ndarray, weight: np.ndarr
 
 def settle(laws: Sequence[SlipBound], solve_once: Callable[[], tuple[bool, int, str]],
            tolerance: Callable[[], float]) -> tuple[bool, int, str]:
-    """Newton solves, each law's bound moved toward mu p after each, until Coulomb's law holds to ``tolerance()`` (N).
+    """Newton solves, each law updated after each (:meth:`SlipBound.update`), until every law holds.
+
+    A Coulomb bound is moved toward mu p until Coulomb's law holds to ``tolerance()`` (N); an augmented
+    Lagrangian's multipliers toward the pressure until the penetration is below its target.
 
     ``solve_once()`` is one Newton solve from the current state (converged, iterations, reason). Returns
     the last solve's (converged, reason) with the iterations summed; bounds that have not settled after
@@ -333,7 +370,7 @@ def settle(laws: Sequence[SlipBound], solve_once: Callable[[], tuple[bool, int, 
     for _ in range(FIXED_POINT_SOLVES):
         if not converged:
             return converged, its, reason
-        if max([law.update_bound() for law in laws]) <= tolerance():  # every law updated, then judged
+        if all([law.update(tolerance()) for law in laws]):  # every law updated, then judged
             return converged, its, reason
         converged, more, reason = solve_once()
         its += more

@@ -3,9 +3,10 @@
 Checked here: the mesh split (the tissue keeps no node of a cone's surface but the junctions with a tied
 thread), the cone terms' gradient and Hessian against finite differences of their potential (the search
 moving the nearest point as the state moves; the augmented Lagrangian's multipliers included), the
-augmented Lagrangian meeting its penetration target with the answer independent of its penalty, the load shares summing to the pull for each model, the
-tissue's own force balance where it has lifted off a cone, the order of the lift (tied < Coulomb <
-frictionless, the rigid suture), 2 ranks equal to serial, and the refused combinations.
+augmented Lagrangian meeting its penetration target with the answer independent of its penalty, the
+load shares summing to the pull for each model, the tissue's own force balance where it has lifted off a
+cone, the order of the lift (tied < Coulomb < frictionless, the rigid suture), 2 ranks equal to serial,
+and the refused combinations.
 """
 
 from __future__ import annotations

@@ -227,22 +227,33 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
                    known: dict) -> np.ndarray:
     """:func:`disc_averages` at centres of the fixed grids, each computed once per ``known`` (collective)."""
     unit = radius * GRID_LEVELS[-1][0]  # every level's spacing is a multiple of the finest
-    keys = [tuple(k) for k in np.round(grid / unit).astype(np.int64).tolist()]
-    ok = allowed(grid) if allowed is not None else np.ones(len(grid), dtype=bool)
-    new = [i for i, k in enumerate(keys) if ok[i] and k not in known]  # the same on every rank: the same keys
+    index = np.round(grid / unit).astype(np.int64)
+    if np.abs(index).max(initial=0) < 2**31:  # one integer per grid point: cheaper to hash than a pair
+        keys = (index[:, 0] * 2**32 + index[:, 1]).tolist()
+    else:
+        keys = [tuple(k) for k in index.tolist()]
+    ok = allowed(grid).tolist() if allowed is not None else None
+    if ok is None:  # the same on every rank: the same keys
+        new = [i for i, k in enumerate(keys) if k not in known]
+    else:
+        new = [i for i, k in enumerate(keys) if ok[i] and k not in known]
     if new:
-        for i, v in zip(new, disc_averages(field, grid[new], radius)):
-            known[keys[i]] = float(v)
-    return np.array([known[k] if ok[i] else -np.inf for i, k in enumerate(keys)])
+        for i, v in zip(new, disc_averages(field, grid[new], radius).tolist()):
+            known[keys[i]] = v
+    out = np.array([known.get(k, -np.inf) for k in keys])
+    if ok is not None:
+        out[~np.asarray(ok, dtype=bool)] = -np.inf
+    return out
 
 
 def _climb(field: CellField, centre: np.ndarray, value: float, h: float, half: int, radius: float,
            allowed: Allowed | None, known: dict) -> tuple[float, np.ndarray]:
     """The best centre of a (2 half + 1)^2 grid of spacing h fixed in space, moved until the best is inside it."""
     k = np.arange(-half, half + 1) * h
+    k_r, k_z = np.repeat(k, len(k)), np.tile(k, len(k))  # the (2 half + 1)^2 offsets, r slowest
     for _ in range(MAX_MOVES):
         base = np.round(centre / h) * h  # grid points fixed in space, not on the mesh
-        grid = np.stack(np.meshgrid(base[0] + k, base[1] + k, indexing="ij"), axis=-1).reshape(-1, 2)
+        grid = np.column_stack([base[0] + k_r, base[1] + k_z])
         avgs = _grid_averages(field, grid, radius, allowed, known)
         j = int(np.argmax(avgs))
         if not avgs[j] > value:
@@ -256,11 +267,26 @@ def _climb(field: CellField, centre: np.ndarray, value: float, h: float, half: i
 
 def top_points(comm: Any, values: np.ndarray, xy: np.ndarray, separation: float, count: int = CANDIDATES) -> np.ndarray:
     """The ``count`` largest point values over all ranks, at least ``separation`` apart: their (k, 2) positions."""
-    order = np.argsort(values)[::-1][: 50 * count]
+    order = _largest(values, 50 * count)
     local = np.column_stack([values[order], xy[order]]) if len(order) else np.zeros((0, 3))
     merged = np.concatenate(comm.allgather(local))
     merged = merged[np.lexsort((-merged[:, 2], -merged[:, 1], -merged[:, 0]))]  # largest first, ties by position
     return spread(merged[:, 1:], separation, count)
+
+
+def _largest(values: np.ndarray, n: int) -> np.ndarray:
+    """Indices of the ``n`` largest values (in any order): the set ``np.argsort(values)[::-1][:n]`` takes.
+
+    A partition, not a sort (the caller sorts what every rank sends); where a tie at the n-th value
+    leaves the set to the sort's order, or with NaN, the sort's own choice is taken.
+    """
+    if len(values) <= n:
+        return np.argsort(values)[::-1]
+    top = np.argpartition(values, len(values) - n)[len(values) - n:]
+    cut = values[top].min()
+    if np.isfinite(cut) and np.count_nonzero(values >= cut) == n and not np.isnan(values).any():
+        return top
+    return np.argsort(values)[::-1][:n]
 
 
 def spread(candidates: np.ndarray, separation: float, count: int) -> np.ndarray:

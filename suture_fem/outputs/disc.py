@@ -102,13 +102,15 @@ class CellField:
         self.coeffs = _fit(system, values) if system is not None else np.zeros((0, 3))
         self.locate = locate if locate is not None else compat.cell_locator(mesh, self.cells)
 
-    def at(self, points: np.ndarray) -> np.ndarray:
+    def at(self, points: np.ndarray, key: bytes | None = None) -> np.ndarray:
         """The field at points (m, 2); -inf where no cell of the field (on any rank) holds the point (collective).
 
-        With ``discs`` (:class:`DiscPoints`), the points are prepared once and kept for the next field.
+        With ``discs`` (:class:`DiscPoints`), the points are prepared once and kept for the next field
+        (under ``key`` when given: a key that names these points alone, else a digest of them).
         """
         if self.discs is not None:
-            return self._reduce(self.discs.prepared_points(points, self.row, self.centre).values(self.coeffs))
+            prepared = self.discs.prepared_points(points, self.row, self.centre, key)
+            return self._reduce(prepared.values(self.coeffs))
         located = self.locate(np.column_stack([points, np.zeros(len(points))])) if len(points) else None
         return self._reduce(Prepared.of(points, located, self.row, self.centre).values(self.coeffs))
 
@@ -327,22 +329,34 @@ def coarse_starts(field: CellField, lo: np.ndarray, hi: np.ndarray, radius: floa
     """
     if not np.all(np.isfinite([*lo, *hi])):  # no point of the region on any rank (the same box on every rank)
         return np.zeros((0, 2))
-    h = COARSE_SPACING * radius
-    area = max((hi[0] - lo[0]) * (hi[1] - lo[1]), 0.0)
-    while area / h**2 > COARSE_NODES:  # a critical distance tiny against the region: a coarser view, bounded cost
-        h *= 2.0
-    axes = [np.arange(np.floor(lo[d] / h) - 1, np.ceil(hi[d] / h) + 2) * h for d in range(2)]
-    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-    values = field.at(nodes.reshape(-1, 2)).reshape(nodes.shape[:2])
+    key = b"coarse" + np.array([*lo, *hi, radius], dtype=np.float64).tobytes()  # the grid: fixed by box and R
+    kept = field.discs.coarse.get(key) if field.discs is not None else None
+    nodes = kept[0] if kept is not None else _coarse_nodes(lo, hi, radius)
+    values = field.at(nodes.reshape(-1, 2), key=key).reshape(nodes.shape[:2])
     inside = np.isfinite(values)
-    w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
+    if kept is not None and np.array_equal(kept[1], inside):  # the weights depend on where the field is
+        w, den = kept[2], kept[3]
+    else:
+        w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
+        den = _window_sum(w, _STENCIL, 0.0)
+        if field.discs is not None:
+            field.discs.coarse[key] = (nodes, inside, w, den)
     avg = _window_sum(w * np.where(inside, values, 0.0), _STENCIL, 0.0)
-    den = _window_sum(w, _STENCIL, 0.0)
     avg = np.where(inside & (den > 0), avg / np.maximum(den, 1e-300), -np.inf)
     around = [(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j]
     peak = np.all([avg >= shifted for shifted in _shifts(avg, around, -np.inf)], axis=0) & np.isfinite(avg)
     idx = np.flatnonzero(peak)
     return spread(nodes.reshape(-1, 2)[idx[np.argsort(-avg.reshape(-1)[idx], kind="stable")]], radius, count)
+
+
+def _coarse_nodes(lo: np.ndarray, hi: np.ndarray, radius: float) -> np.ndarray:
+    """The coarse view's grid over the box [lo, hi] (n, m, 2): spacing R/2, doubled until it has few enough nodes."""
+    h = COARSE_SPACING * radius
+    area = max((hi[0] - lo[0]) * (hi[1] - lo[1]), 0.0)
+    while area / h**2 > COARSE_NODES:  # a critical distance tiny against the region: a coarser view, bounded cost
+        h *= 2.0
+    axes = [np.arange(np.floor(lo[d] / h) - 1, np.ceil(hi[d] / h) + 2) * h for d in range(2)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
 
 
 def _shifts(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> list[np.ndarray]:
@@ -352,5 +366,9 @@ def _shifts(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> list[
 
 
 def _window_sum(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> np.ndarray:
-    """The sum of ``a`` over the offsets around every index (``fill`` beyond the edges)."""
-    return np.sum(_shifts(a, offsets, fill), axis=0)
+    """The sum of ``a`` over the offsets around every index (``fill`` beyond the edges), added in the offsets' order."""
+    shifted = _shifts(a, offsets, fill)
+    total = shifted[0].copy()
+    for view in shifted[1:]:  # as np.sum(shifted, axis=0) adds them, without stacking them first
+        total += view
+    return total

@@ -88,6 +88,8 @@ class DiscPoints:
         #: the fields' cell centres, rows and least-squares system (they too depend on the points alone)
         self.cells: tuple[np.ndarray, np.ndarray, Any] | None = None
         self.batches: OrderedDict[bytes, tuple[Prepared, np.ndarray | None]] = OrderedDict()
+        #: per coarse view (its key): its grid, where the field was, the 2 pi r weights and their window sums
+        self.coarse: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         self._bytes = 0
 
     def prepared_discs(self, centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray, row: np.ndarray,
@@ -101,9 +103,14 @@ class DiscPoints:
         w = weights[None, :] * np.abs(points[len(centres):, 0]).reshape(len(centres), -1)
         return self._keep(key, Prepared.of(points, self.located(centres, offsets), row, centre), w)
 
-    def prepared_points(self, points: np.ndarray, row: np.ndarray, centre: np.ndarray) -> Prepared:
-        """Any points (m, 2) prepared (a coarse view's grid: the same grid at every state)."""
-        key = _digest(b"points", points)
+    def prepared_points(self, points: np.ndarray, row: np.ndarray, centre: np.ndarray,
+                        key: bytes | None = None) -> Prepared:
+        """Any points (m, 2) prepared (a coarse view's grid: the same grid at every state).
+
+        ``key``: bytes that name these points alone (a coarse view's box and radius), so the points need
+        no digest; None: a digest of the points.
+        """
+        key = _digest(b"points", points) if key is None else key
         if key in self.batches:
             self.batches.move_to_end(key)
             return self.batches[key][0]

@@ -81,10 +81,12 @@ class CellField:
     ``xy`` (n_cells, q, 2) and ``values`` (n_cells, q): the points of each cell and the field there, in
     the mesh's coordinate units. With fewer than 3 points per cell the fit is the cell's mean.
     ``locate``: ``compat.cell_locator(mesh, cells)`` when the caller keeps one for several fields.
+    ``coeffs``: the fit of these values, when the caller has it (each cell's fit depends on its own points
+    and values alone: the whole tissue's is its layers' fits in order).
     """
 
     def __init__(self, mesh: Any, cells: np.ndarray, xy: np.ndarray, values: np.ndarray, locate: Any = None,
-                 discs: DiscPoints | None = None):
+                 discs: DiscPoints | None = None, coeffs: np.ndarray | None = None):
         self.discs = discs
         self.comm = mesh.comm
         self.cells = np.asarray(cells, dtype=np.int32)
@@ -99,7 +101,10 @@ class CellField:
             system = _fit_system(xy - self.centre[:, None, :]) if len(cells) else None
             if discs is not None:
                 discs.cells = (self.centre, self.row, system)
-        self.coeffs = _fit(system, values) if system is not None else np.zeros((0, 3))
+        if coeffs is not None:
+            self.coeffs = coeffs
+        else:
+            self.coeffs = _fit(system, values) if system is not None else np.zeros((0, 3))
         self.locate = locate if locate is not None else compat.cell_locator(mesh, self.cells)
 
     def at(self, points: np.ndarray, key: bytes | None = None) -> np.ndarray:

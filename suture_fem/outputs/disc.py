@@ -105,6 +105,7 @@ class CellField:
             self.coeffs = coeffs
         else:
             self.coeffs = _fit(system, values) if system is not None else np.zeros((0, 3))
+        self.columns = np.ascontiguousarray(self.coeffs.T)  # (3, n): a, b, c each contiguous, for the gathers
         self.locate = locate if locate is not None else compat.cell_locator(mesh, self.cells)
 
     def at(self, points: np.ndarray, key: bytes | None = None) -> np.ndarray:
@@ -115,9 +116,9 @@ class CellField:
         """
         if self.discs is not None:
             prepared = self.discs.prepared_points(points, self.row, self.centre, key)
-            return self._reduce(prepared.values(self.coeffs))
+            return self._reduce(prepared.values(self.columns))
         located = self.locate(np.column_stack([points, np.zeros(len(points))])) if len(points) else None
-        return self._reduce(Prepared.of(points, located, self.row, self.centre).values(self.coeffs))
+        return self._reduce(Prepared.of(points, located, self.row, self.centre).values(self.columns))
 
     def at_discs(self, centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`at` of ``[centres, centre 0 + offsets, ...]`` and the rule's 2 pi r weights (k, m) (collective).
@@ -131,10 +132,12 @@ class CellField:
             w = weights[None, :] * np.abs(points[len(centres):, 0]).reshape(len(centres), -1)
             return self.at(points), w
         prepared, w = self.discs.prepared_discs(centres, offsets, weights, self.row, self.centre)
-        return self._reduce(prepared.values(self.coeffs)), w
+        return self._reduce(prepared.values(self.columns)), w
 
     def _reduce(self, local: np.ndarray) -> np.ndarray:
         """The largest of every rank's values (collective)."""
+        if self.comm.size == 1:
+            return local
         out = np.empty_like(local)
         from mpi4py import MPI
 

@@ -55,13 +55,16 @@ class Prepared(NamedTuple):
         starts, group = _groups(idx)
         return cls(len(points), idx, rows, d[:, 0].copy(), d[:, 1].copy(), starts, group)
 
-    def values(self, coeffs: np.ndarray) -> np.ndarray:
-        """The field of per-cell coefficients (a, b, c) at the points: the largest over a point's cells; -inf: none."""
+    def values(self, columns: np.ndarray) -> np.ndarray:
+        """The field of per-cell coefficients at the points: the largest over a point's cells; -inf: none.
+
+        ``columns`` (3, n): the coefficients a, b and c of the n cells (each row contiguous).
+        """
         local = np.full(self.size, -np.inf)
         if not len(self.idx):
             return local
         rows = self.rows
-        _max_into(local, self.idx, coeffs[rows, 0] + coeffs[rows, 1] * self.d0 + coeffs[rows, 2] * self.d1,
+        _max_into(local, self.idx, columns[0][rows] + columns[1][rows] * self.d0 + columns[2][rows] * self.d1,
                   self.starts, self.group)
         return local
 

@@ -330,4 +330,4 @@ def _track_summary(m: dict[str, np.ndarray], profiles: dict[str, Any]) -> dict[s
 
 def _rounded(values: np.ndarray) -> list[float | None]:
     """A JSON list with 7 significant digits (NaN as null)."""
-    return [None if not np.isfinite(v) else float(f"{v:.7g}") for v in np.asarray(values, dtype=float)]
+    return [float(f"{v:.7g}") if math.isfinite(v) else None for v in np.asarray(values, dtype=float).tolist()]

@@ -191,10 +191,10 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
     offsets, weights = disc_rule(radius)
     values, w = field.at_discs(np.asarray(centres, dtype=float), offsets, weights)
     inside, vals = values[: len(centres)], values[len(centres):].reshape(len(centres), -1)
-    w = np.where(np.isfinite(vals), w, 0.0)
+    finite = np.isfinite(vals)
+    w = np.where(finite, w, 0.0)
     total = w.sum(axis=1)
-    avg = np.where(total > 0, np.sum(w * np.where(np.isfinite(vals), vals, 0.0), axis=1) / np.maximum(total, 1e-300),
-                   -np.inf)
+    avg = np.where(total > 0, np.sum(w * np.where(finite, vals, 0.0), axis=1) / np.maximum(total, 1e-300), -np.inf)
     return np.where(np.isfinite(inside), avg, -np.inf)
 
 

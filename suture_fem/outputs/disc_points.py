@@ -64,8 +64,16 @@ class Prepared(NamedTuple):
         if not len(self.idx):
             return local
         rows = self.rows
-        _max_into(local, self.idx, columns[0][rows] + columns[1][rows] * self.d0 + columns[2][rows] * self.d1,
-                  self.starts, self.group)
+        vals = columns[1][rows]  # a + b d0 + c d1 in place: (b d0 + a) + c d1, the same sums (addition commutes)
+        vals *= self.d0
+        vals += columns[0][rows]
+        term = columns[2][rows]
+        term *= self.d1
+        vals += term
+        if self.starts is None:
+            _max_into(local, self.idx, vals)
+        else:  # each point's largest over its cells (max(-inf, v) is v: the fresh array needs no comparison)
+            local[self.group] = np.maximum.reduceat(vals, self.starts)
         return local
 
     @property

@@ -133,6 +133,8 @@ class CriticalDistance(Quantity):
         mesh = setup.physics.mesh
         owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self.parts: dict[str, Any] = {}
+        self.stacked: set[str] = set()  # regions whose cells are their layers' cells in order (the whole tissue)
+        self._fits: tuple[State | None, dict] = (None, {})  # the fitted coefficients of the state last evaluated
         segments = cone_segments(setup.physics.tagged.geometry.cones)  # once: the search asks for every grid
         zone = CONE_ZONE_RADII * self.radius / MM
         self.near_cones = (None if segments is None else
@@ -149,6 +151,9 @@ class CriticalDistance(Quantity):
             locate = compat.cell_locator(mesh, cells[mine])
             self.parts[region] = (layers, cells[mine], mine, None if xy is None else xy[mine], locate,
                                   _box(setup.physics.comm, xy), DiscPoints(locate))
+        if layers_too and len(self.parts) == len(TISSUE_REGIONS) + 1 and np.array_equal(
+                self.parts[WHOLE_TISSUE][1], np.concatenate([self.parts[r][1] for r in TISSUE_REGIONS])):
+            self.stacked.add(WHOLE_TISSUE)
 
     def _measure(self, state: State, region: str) -> dict[str, Any]:
         if region not in self.parts:
@@ -179,7 +184,15 @@ class CriticalDistance(Quantity):
         values = np.concatenate([fn(state, r) for r in layers])
         values = values.reshape(len(mine), -1)[mine] if len(mine) else np.zeros((0, 1))
         xy = xy if xy is not None else np.zeros((0, 1, 2))
-        return CellField(self.setup.physics.mesh, cells, xy, values, locate, discs), values
+        if self._fits[0] is not state:
+            self._fits = (state, {})
+        fits = self._fits[1]
+        coeffs = None
+        if region in self.stacked and all((fn, r) in fits for r in layers):  # each cell's fit is its own: the
+            coeffs = np.concatenate([fits[fn, r] for r in layers])  # same points and values, the same numbers
+        field = CellField(self.setup.physics.mesh, cells, xy, values, locate, discs, coeffs=coeffs)
+        fits[fn, region] = field.coeffs
+        return field, values
 
     def in_region(self, state: State, region: str) -> dict[str, Any]:
         """The largest disc averages of one tissue layer (collective)."""

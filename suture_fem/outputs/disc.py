@@ -81,10 +81,12 @@ class CellField:
     ``xy`` (n_cells, q, 2) and ``values`` (n_cells, q): the points of each cell and the field there, in
     the mesh's coordinate units. With fewer than 3 points per cell the fit is the cell's mean.
     ``locate``: ``compat.cell_locator(mesh, cells)`` when the caller keeps one for several fields.
+    ``coeffs``: the fit of these values, when the caller has it (each cell's fit depends on its own points
+    and values alone: the whole tissue's is its layers' fits in order).
     """
 
     def __init__(self, mesh: Any, cells: np.ndarray, xy: np.ndarray, values: np.ndarray, locate: Any = None,
-                 discs: DiscPoints | None = None):
+                 discs: DiscPoints | None = None, coeffs: np.ndarray | None = None):
         self.discs = discs
         self.comm = mesh.comm
         self.cells = np.asarray(cells, dtype=np.int32)
@@ -99,18 +101,24 @@ class CellField:
             system = _fit_system(xy - self.centre[:, None, :]) if len(cells) else None
             if discs is not None:
                 discs.cells = (self.centre, self.row, system)
-        self.coeffs = _fit(system, values) if system is not None else np.zeros((0, 3))
+        if coeffs is not None:
+            self.coeffs = coeffs
+        else:
+            self.coeffs = _fit(system, values) if system is not None else np.zeros((0, 3))
+        self.columns = np.ascontiguousarray(self.coeffs.T)  # (3, n): a, b, c each contiguous, for the gathers
         self.locate = locate if locate is not None else compat.cell_locator(mesh, self.cells)
 
-    def at(self, points: np.ndarray) -> np.ndarray:
+    def at(self, points: np.ndarray, key: bytes | None = None) -> np.ndarray:
         """The field at points (m, 2); -inf where no cell of the field (on any rank) holds the point (collective).
 
-        With ``discs`` (:class:`DiscPoints`), the points are prepared once and kept for the next field.
+        With ``discs`` (:class:`DiscPoints`), the points are prepared once and kept for the next field
+        (under ``key`` when given: a key that names these points alone, else a digest of them).
         """
         if self.discs is not None:
-            return self._reduce(self.discs.prepared_points(points, self.row, self.centre).values(self.coeffs))
+            prepared = self.discs.prepared_points(points, self.row, self.centre, key)
+            return self._reduce(prepared.values(self.columns))
         located = self.locate(np.column_stack([points, np.zeros(len(points))])) if len(points) else None
-        return self._reduce(Prepared.of(points, located, self.row, self.centre).values(self.coeffs))
+        return self._reduce(Prepared.of(points, located, self.row, self.centre).values(self.columns))
 
     def at_discs(self, centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`at` of ``[centres, centre 0 + offsets, ...]`` and the rule's 2 pi r weights (k, m) (collective).
@@ -124,10 +132,12 @@ class CellField:
             w = weights[None, :] * np.abs(points[len(centres):, 0]).reshape(len(centres), -1)
             return self.at(points), w
         prepared, w = self.discs.prepared_discs(centres, offsets, weights, self.row, self.centre)
-        return self._reduce(prepared.values(self.coeffs)), w
+        return self._reduce(prepared.values(self.columns)), w
 
     def _reduce(self, local: np.ndarray) -> np.ndarray:
         """The largest of every rank's values (collective)."""
+        if self.comm.size == 1:
+            return local
         out = np.empty_like(local)
         from mpi4py import MPI
 
@@ -181,10 +191,10 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
     offsets, weights = disc_rule(radius)
     values, w = field.at_discs(np.asarray(centres, dtype=float), offsets, weights)
     inside, vals = values[: len(centres)], values[len(centres):].reshape(len(centres), -1)
-    w = np.where(np.isfinite(vals), w, 0.0)
+    finite = np.isfinite(vals)
+    w = np.where(finite, w, 0.0)
     total = w.sum(axis=1)
-    avg = np.where(total > 0, np.sum(w * np.where(np.isfinite(vals), vals, 0.0), axis=1) / np.maximum(total, 1e-300),
-                   -np.inf)
+    avg = np.where(total > 0, np.sum(w * np.where(finite, vals, 0.0), axis=1) / np.maximum(total, 1e-300), -np.inf)
     return np.where(np.isfinite(inside), avg, -np.inf)
 
 
@@ -227,22 +237,33 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
                    known: dict) -> np.ndarray:
     """:func:`disc_averages` at centres of the fixed grids, each computed once per ``known`` (collective)."""
     unit = radius * GRID_LEVELS[-1][0]  # every level's spacing is a multiple of the finest
-    keys = [tuple(k) for k in np.round(grid / unit).astype(np.int64).tolist()]
-    ok = allowed(grid) if allowed is not None else np.ones(len(grid), dtype=bool)
-    new = [i for i, k in enumerate(keys) if ok[i] and k not in known]  # the same on every rank: the same keys
+    index = np.round(grid / unit).astype(np.int64)
+    if np.abs(index).max(initial=0) < 2**31:  # one integer per grid point: cheaper to hash than a pair
+        keys = (index[:, 0] * 2**32 + index[:, 1]).tolist()
+    else:
+        keys = [tuple(k) for k in index.tolist()]
+    ok = allowed(grid).tolist() if allowed is not None else None
+    if ok is None:  # the same on every rank: the same keys
+        new = [i for i, k in enumerate(keys) if k not in known]
+    else:
+        new = [i for i, k in enumerate(keys) if ok[i] and k not in known]
     if new:
-        for i, v in zip(new, disc_averages(field, grid[new], radius)):
-            known[keys[i]] = float(v)
-    return np.array([known[k] if ok[i] else -np.inf for i, k in enumerate(keys)])
+        for i, v in zip(new, disc_averages(field, grid[new], radius).tolist()):
+            known[keys[i]] = v
+    out = np.array([known.get(k, -np.inf) for k in keys])
+    if ok is not None:
+        out[~np.asarray(ok, dtype=bool)] = -np.inf
+    return out
 
 
 def _climb(field: CellField, centre: np.ndarray, value: float, h: float, half: int, radius: float,
            allowed: Allowed | None, known: dict) -> tuple[float, np.ndarray]:
     """The best centre of a (2 half + 1)^2 grid of spacing h fixed in space, moved until the best is inside it."""
     k = np.arange(-half, half + 1) * h
+    k_r, k_z = np.repeat(k, len(k)), np.tile(k, len(k))  # the (2 half + 1)^2 offsets, r slowest
     for _ in range(MAX_MOVES):
         base = np.round(centre / h) * h  # grid points fixed in space, not on the mesh
-        grid = np.stack(np.meshgrid(base[0] + k, base[1] + k, indexing="ij"), axis=-1).reshape(-1, 2)
+        grid = np.column_stack([base[0] + k_r, base[1] + k_z])
         avgs = _grid_averages(field, grid, radius, allowed, known)
         j = int(np.argmax(avgs))
         if not avgs[j] > value:
@@ -256,11 +277,26 @@ def _climb(field: CellField, centre: np.ndarray, value: float, h: float, half: i
 
 def top_points(comm: Any, values: np.ndarray, xy: np.ndarray, separation: float, count: int = CANDIDATES) -> np.ndarray:
     """The ``count`` largest point values over all ranks, at least ``separation`` apart: their (k, 2) positions."""
-    order = np.argsort(values)[::-1][: 50 * count]
+    order = _largest(values, 50 * count)
     local = np.column_stack([values[order], xy[order]]) if len(order) else np.zeros((0, 3))
     merged = np.concatenate(comm.allgather(local))
     merged = merged[np.lexsort((-merged[:, 2], -merged[:, 1], -merged[:, 0]))]  # largest first, ties by position
     return spread(merged[:, 1:], separation, count)
+
+
+def _largest(values: np.ndarray, n: int) -> np.ndarray:
+    """Indices of the ``n`` largest values (in any order): the set ``np.argsort(values)[::-1][:n]`` takes.
+
+    A partition, not a sort (the caller sorts what every rank sends); where a tie at the n-th value
+    leaves the set to the sort's order, or with NaN, the sort's own choice is taken.
+    """
+    if len(values) <= n:
+        return np.argsort(values)[::-1]
+    top = np.argpartition(values, len(values) - n)[len(values) - n:]
+    cut = values[top].min()
+    if np.isfinite(cut) and np.count_nonzero(values >= cut) == n and not np.isnan(values).any():
+        return top
+    return np.argsort(values)[::-1][:n]
 
 
 def spread(candidates: np.ndarray, separation: float, count: int) -> np.ndarray:
@@ -301,22 +337,34 @@ def coarse_starts(field: CellField, lo: np.ndarray, hi: np.ndarray, radius: floa
     """
     if not np.all(np.isfinite([*lo, *hi])):  # no point of the region on any rank (the same box on every rank)
         return np.zeros((0, 2))
-    h = COARSE_SPACING * radius
-    area = max((hi[0] - lo[0]) * (hi[1] - lo[1]), 0.0)
-    while area / h**2 > COARSE_NODES:  # a critical distance tiny against the region: a coarser view, bounded cost
-        h *= 2.0
-    axes = [np.arange(np.floor(lo[d] / h) - 1, np.ceil(hi[d] / h) + 2) * h for d in range(2)]
-    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-    values = field.at(nodes.reshape(-1, 2)).reshape(nodes.shape[:2])
+    key = b"coarse" + np.array([*lo, *hi, radius], dtype=np.float64).tobytes()  # the grid: fixed by box and R
+    kept = field.discs.coarse.get(key) if field.discs is not None else None
+    nodes = kept[0] if kept is not None else _coarse_nodes(lo, hi, radius)
+    values = field.at(nodes.reshape(-1, 2), key=key).reshape(nodes.shape[:2])
     inside = np.isfinite(values)
-    w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
+    if kept is not None and np.array_equal(kept[1], inside):  # the weights depend on where the field is
+        w, den = kept[2], kept[3]
+    else:
+        w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
+        den = _window_sum(w, _STENCIL, 0.0)
+        if field.discs is not None:
+            field.discs.coarse[key] = (nodes, inside, w, den)
     avg = _window_sum(w * np.where(inside, values, 0.0), _STENCIL, 0.0)
-    den = _window_sum(w, _STENCIL, 0.0)
     avg = np.where(inside & (den > 0), avg / np.maximum(den, 1e-300), -np.inf)
     around = [(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j]
     peak = np.all([avg >= shifted for shifted in _shifts(avg, around, -np.inf)], axis=0) & np.isfinite(avg)
     idx = np.flatnonzero(peak)
     return spread(nodes.reshape(-1, 2)[idx[np.argsort(-avg.reshape(-1)[idx], kind="stable")]], radius, count)
+
+
+def _coarse_nodes(lo: np.ndarray, hi: np.ndarray, radius: float) -> np.ndarray:
+    """The coarse view's grid over the box [lo, hi] (n, m, 2): spacing R/2, doubled until it has few enough nodes."""
+    h = COARSE_SPACING * radius
+    area = max((hi[0] - lo[0]) * (hi[1] - lo[1]), 0.0)
+    while area / h**2 > COARSE_NODES:  # a critical distance tiny against the region: a coarser view, bounded cost
+        h *= 2.0
+    axes = [np.arange(np.floor(lo[d] / h) - 1, np.ceil(hi[d] / h) + 2) * h for d in range(2)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
 
 
 def _shifts(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> list[np.ndarray]:
@@ -326,5 +374,9 @@ def _shifts(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> list[
 
 
 def _window_sum(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> np.ndarray:
-    """The sum of ``a`` over the offsets around every index (``fill`` beyond the edges)."""
-    return np.sum(_shifts(a, offsets, fill), axis=0)
+    """The sum of ``a`` over the offsets around every index (``fill`` beyond the edges), added in the offsets' order."""
+    shifted = _shifts(a, offsets, fill)
+    total = shifted[0].copy()
+    for view in shifted[1:]:  # as np.sum(shifted, axis=0) adds them, without stacking them first
+        total += view
+    return total

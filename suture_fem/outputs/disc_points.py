@@ -55,14 +55,25 @@ class Prepared(NamedTuple):
         starts, group = _groups(idx)
         return cls(len(points), idx, rows, d[:, 0].copy(), d[:, 1].copy(), starts, group)
 
-    def values(self, coeffs: np.ndarray) -> np.ndarray:
-        """The field of per-cell coefficients (a, b, c) at the points: the largest over a point's cells; -inf: none."""
+    def values(self, columns: np.ndarray) -> np.ndarray:
+        """The field of per-cell coefficients at the points: the largest over a point's cells; -inf: none.
+
+        ``columns`` (3, n): the coefficients a, b and c of the n cells (each row contiguous).
+        """
         local = np.full(self.size, -np.inf)
         if not len(self.idx):
             return local
         rows = self.rows
-        _max_into(local, self.idx, coeffs[rows, 0] + coeffs[rows, 1] * self.d0 + coeffs[rows, 2] * self.d1,
-                  self.starts, self.group)
+        vals = columns[1][rows]  # a + b d0 + c d1 in place: (b d0 + a) + c d1, the same sums (addition commutes)
+        vals *= self.d0
+        vals += columns[0][rows]
+        term = columns[2][rows]
+        term *= self.d1
+        vals += term
+        if self.starts is None:
+            _max_into(local, self.idx, vals)
+        else:  # each point's largest over its cells (max(-inf, v) is v: the fresh array needs no comparison)
+            local[self.group] = np.maximum.reduceat(vals, self.starts)
         return local
 
     @property
@@ -88,6 +99,8 @@ class DiscPoints:
         #: the fields' cell centres, rows and least-squares system (they too depend on the points alone)
         self.cells: tuple[np.ndarray, np.ndarray, Any] | None = None
         self.batches: OrderedDict[bytes, tuple[Prepared, np.ndarray | None]] = OrderedDict()
+        #: per coarse view (its key): its grid, where the field was, the 2 pi r weights and their window sums
+        self.coarse: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         self._bytes = 0
 
     def prepared_discs(self, centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray, row: np.ndarray,
@@ -101,9 +114,14 @@ class DiscPoints:
         w = weights[None, :] * np.abs(points[len(centres):, 0]).reshape(len(centres), -1)
         return self._keep(key, Prepared.of(points, self.located(centres, offsets), row, centre), w)
 
-    def prepared_points(self, points: np.ndarray, row: np.ndarray, centre: np.ndarray) -> Prepared:
-        """Any points (m, 2) prepared (a coarse view's grid: the same grid at every state)."""
-        key = _digest(b"points", points)
+    def prepared_points(self, points: np.ndarray, row: np.ndarray, centre: np.ndarray,
+                        key: bytes | None = None) -> Prepared:
+        """Any points (m, 2) prepared (a coarse view's grid: the same grid at every state).
+
+        ``key``: bytes that name these points alone (a coarse view's box and radius), so the points need
+        no digest; None: a digest of the points.
+        """
+        key = _digest(b"points", points) if key is None else key
         if key in self.batches:
             self.batches.move_to_end(key)
             return self.batches[key][0]

@@ -108,6 +108,7 @@ class Interface(Quantity):
         self.thread_surface = np.flatnonzero(surface[: self.n_owned])
         self.thread_xy_mm = xy[self.thread_surface]
         self._area_normal: tuple[np.ndarray, np.ndarray] | None = None
+        self._layout: dict[str, tuple[Any, ...]] | None = None
 
     @staticmethod
     def describe(output: Any) -> dict[str, str]:
@@ -137,7 +138,9 @@ class Interface(Quantity):
         gathered = comm.allgather(local)
         merged = {key: np.concatenate([g[key] for g in gathered]) for key in local}
         merged["thread_z_now"], merged["thread_order"] = _thread_map(merged)
-        profiles = _profiles(merged, self.geometry, self.names)
+        if self._layout is None:  # the mesh's part of the profiles, the same at every state
+            self._layout = _layout(merged, self.geometry, self.names)
+        profiles = _profiles(merged, self._layout)
         cones = cone_record(physics, profiles, self.names) if physics.cone_contact is not None else {}
         total = float(np.sum(shares))
         friction = {}
@@ -236,12 +239,14 @@ def _tangents(normal: np.ndarray) -> np.ndarray:
     return np.stack([normal[:, 1], -normal[:, 0]], axis=1)
 
 
-def _profiles(m: dict[str, np.ndarray], g: Any, names: list[str]) -> dict[str, dict[str, Any]]:
-    """Each part's pressure, shear (Pa), slip (mm) against arc length, ordered (all ranks' nodes merged)."""
-    out: dict[str, dict[str, Any]] = {}
-    area = np.maximum(m["area"], 1e-300)
-    traction = m["force"] / area[:, None]
-    pressure = np.sum(traction * m["normal"], axis=1)
+def _layout(m: dict[str, np.ndarray], g: Any, names: list[str]) -> dict[str, tuple[Any, ...]]:
+    """What the profiles take from the mesh alone, per part: (nodes by arc length, tangents, s, r, z lists).
+
+    The nodes ordered by arc length, the tangents oriented along it and the rounded lists of s, r and z:
+    the nodes, normals and parts of every rank are the same at every state, so :meth:`Interface.totals`
+    keeps this once.
+    """
+    out = {}
     for k, name in enumerate(names):
         sel = np.flatnonzero(m["part"] == k)
         xy = m["xy"][sel]
@@ -256,11 +261,22 @@ def _profiles(m: dict[str, np.ndarray], g: Any, names: list[str]) -> dict[str, d
             ds_dir = np.gradient(m["xy"][sel], s, axis=0) if np.ptp(s) > 0 else tangent
             flip = np.sum(tangent * ds_dir, axis=1) < 0
             tangent[flip] *= -1
+        out[name] = (sel, tangent, _rounded(s), _rounded(m["xy"][sel, 0]), _rounded(m["xy"][sel, 1]))
+    return out
+
+
+def _profiles(m: dict[str, np.ndarray], layout: dict[str, tuple[Any, ...]]) -> dict[str, dict[str, Any]]:
+    """Each part's pressure, shear (Pa), slip (mm) against arc length, ordered (all ranks' nodes merged)."""
+    out: dict[str, dict[str, Any]] = {}
+    area = np.maximum(m["area"], 1e-300)
+    traction = m["force"] / area[:, None]
+    pressure = np.sum(traction * m["normal"], axis=1)
+    for name, (sel, tangent, s_mm, r_mm, z_mm) in layout.items():
         shear = np.sum(traction[sel] * tangent, axis=1)
         prof: dict[str, Any] = {
-            "s_mm": _rounded(s),
-            "r_mm": _rounded(m["xy"][sel, 0]),
-            "z_mm": _rounded(m["xy"][sel, 1]),
+            "s_mm": list(s_mm),
+            "r_mm": list(r_mm),
+            "z_mm": list(z_mm),
             "pressure_pa": _rounded(pressure[sel]),
             "shear_pa": _rounded(shear),
             "axial_force_n": float(np.sum(m["force"][sel, 1])),
@@ -330,4 +346,4 @@ def _track_summary(m: dict[str, np.ndarray], profiles: dict[str, Any]) -> dict[s
 
 def _rounded(values: np.ndarray) -> list[float | None]:
     """A JSON list with 7 significant digits (NaN as null)."""
-    return [None if not np.isfinite(v) else float(f"{v:.7g}") for v in np.asarray(values, dtype=float)]
+    return [float(f"{v:.7g}") if math.isfinite(v) else None for v in np.asarray(values, dtype=float).tolist()]

@@ -196,3 +196,48 @@ def test_spread_takes_candidates_in_order_each_far_enough_from_those_taken_befor
             if len(expected) < count and all(np.hypot(*(c - t)) >= separation for t in expected):
                 expected.append(c)
         assert np.array_equal(spread(candidates, separation, count), np.array(expected).reshape(-1, 2))
+
+
+def test_the_largest_values_by_partition_are_the_set_the_sort_takes():
+    from suture_fem.outputs.disc import _largest
+
+    rng = np.random.default_rng(5)
+    for trial in range(30):
+        n = int(rng.integers(1, 300))
+        values = rng.normal(size=n) if trial % 3 else np.round(rng.normal(size=n), 1)  # ties at the cut
+        if trial % 10 == 7:
+            values[int(rng.integers(0, n))] = np.nan
+        k = int(rng.integers(1, 60))
+        by_sort = np.argsort(values)[::-1][:k]
+        got = _largest(values, k)
+        assert sorted(got.tolist()) == sorted(by_sort.tolist())
+
+
+def test_window_sums_are_numpy_s_sums_of_the_shifted_arrays_bit_for_bit():
+    from suture_fem.outputs.disc import _STENCIL, _shifts, _window_sum
+
+    rng = np.random.default_rng(6)
+    a = rng.normal(size=(37, 23)) * 10.0 ** rng.integers(-8, 8, (37, 23))
+    assert np.array_equal(_window_sum(a, _STENCIL, 0.0), np.sum(_shifts(a, _STENCIL, 0.0), axis=0))
+
+
+def test_a_field_of_two_sets_of_cells_is_their_two_fits_in_order_and_the_coarse_view_kept_is_the_same():
+    from suture_fem.outputs.disc import coarse_starts
+    from suture_fem.outputs.disc_points import DiscPoints
+    from suture_fem.support import compat
+
+    mesh = _mesh(12)
+    whole = _field(mesh, _spikes_and_bump)
+    half = len(whole.cells) // 2
+    xy = np.einsum("qv,nvd->nqd", np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]),
+                   mesh.geometry.x[compat.geometry_dofs(mesh)[whole.cells][:, :3], :2])
+    values = _spikes_and_bump(xy[..., 0], xy[..., 1])
+    parts = [CellField(mesh, whole.cells[s], xy[s], values[s]) for s in (slice(None, half), slice(half, None))]
+    assert np.array_equal(np.concatenate([p.coeffs for p in parts]), whole.coeffs)
+    # a kept coarse view (grid, weights, window sums) gives what a fresh one gives, for one field and the next
+    discs = DiscPoints(compat.cell_locator(mesh, whole.cells))
+    for f in (_spikes_and_bump, lambda r, z: 1.0 + r * z, _spikes_and_bump):
+        fresh = _field(mesh, f)
+        kept = CellField(mesh, fresh.cells, xy, f(xy[..., 0], xy[..., 1]), discs.locate, discs)
+        assert np.array_equal(coarse_starts(kept, *np.array(BOX), RADIUS), coarse_starts(fresh, *np.array(BOX), RADIUS))
+    assert len(discs.coarse) == 1

@@ -1,4 +1,4 @@
-"""Benchmark: the paper's study under each thread interface model, side by side.
+"""Benchmark: the paper's study under each thread (or cone) interface model, side by side.
 
 Runs ``suture-fem reproduce --no-pictures`` once per model (tied, sliding, frictionless, Coulomb at
 friction coefficients 0.1, 0.3, 0.5), uncalibrated (``--calibrate none``) and, with ``--calibrated``,
@@ -8,7 +8,10 @@ the seven paper USUM values against each model's, the 1-cone to 4-cone USUM rati
 and the converged stress and strain measures near a cone at 1 N, and writes JSON.
 
     .venv/bin/python benchmarks/reproduce_interfaces.py [--out benchmarks/out/reproduce_interfaces]
-        [--calibrated] [--reuse] [--timeout 1800]
+        [--calibrated] [--reuse] [--timeout 1800] [--vary thread|cone]
+
+``--vary cone`` sets ``effects.cone_interface`` instead, the thread tied (uncalibrated only: ``calibrate``
+refuses a cone interface).
 
 ``--reuse`` reads an earlier run's folders instead of solving again. A model whose reproduce run
 stops or times out is reported as such (its folder keeps what converged).
@@ -28,11 +31,11 @@ MODELS = {"tied": [], "sliding": [], "frictionless": []}
 MODELS.update({f"coulomb {mu}": [f"effects.friction_coefficient={mu}"] for mu in (0.1, 0.3, 0.5)})
 
 
-def run(model: str, calibrated: bool, out: Path, timeout: float) -> dict:
+def run(model: str, calibrated: bool, out: Path, timeout: float, vary: str = "thread") -> dict:
     """One reproduce run (or its earlier output): exit code, CPU seconds and the comparison."""
     interface = model.split()[0]
     args = [sys.executable, "-P", "-m", "suture_fem.cli", "reproduce", "--no-pictures", "--out", str(out),
-            "--set", f'effects.thread_interface="{interface}"']
+            "--set", f'effects.{vary}_interface="{interface}"']
     for kv in MODELS[model]:
         args += ["--set", kv]
     if not calibrated:
@@ -113,16 +116,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--calibrated", action="store_true", help="also under the one-parameter protocol")
     ap.add_argument("--reuse", action="store_true", help="read earlier runs' folders where they exist")
     ap.add_argument("--timeout", type=float, default=1800.0)
+    ap.add_argument("--vary", choices=("thread", "cone"), default="thread")
     args = ap.parse_args(argv)
     REUSE = args.reuse
     out = Path(args.out)
     rows = []
-    for calibrated in (False, True) if args.calibrated else (False,):
+    for calibrated in (False, True) if args.calibrated and args.vary == "thread" else (False,):
         for model in MODELS:
             if calibrated and model.startswith("coulomb"):
                 continue
             tag = ("calibrated_" if calibrated else "") + model.replace(" ", "_")
-            rows.append(run(model, calibrated, out / tag, args.timeout))
+            rows.append(run(model, calibrated, out / tag, args.timeout, args.vary))
     for calibrated in (False, True):
         part = [r for r in rows if r["calibrated"] == calibrated]
         if part:

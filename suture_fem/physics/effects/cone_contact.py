@@ -33,6 +33,13 @@ from the search (0 beside a straight segment), plus the friction's w t'(g) T T^T
 left out). A node's terms couple its two dofs with the axial dofs of its cone's interface nodes
 (through t_c), so the matrix pattern is set once, whatever the node slides past.
 
+The unilateral models default to an augmented Lagrangian (``effects.cone_contact_method``; Wriggers 2006,
+section 6.3): 1/2 kappa <-phi>^2 becomes (<lambda - kappa phi>^2 - lambda^2) / (2 kappa), so
+p = <lambda - kappa phi>, with the multiplier lambda frozen during a Newton solve and moved toward p
+between solves (:meth:`ConeContact.update`, Aitken-relaxed) until every pressed node is within
+``effects.contact_penetration_mm`` of its cone. The Hessian is then kappa w n n^T where pressed minus
+w p d2 phi; with lambda = 0 it is the penalty's.
+
 Left out: the cone's own deformation in the search (a cone passes at most 0.8 N in the runs of
 docs/contact.md: its wall's axial strain stays below 0.2 %, a few um over the cone; the peak contact
 pressure, about 1 MPa, strains it radially by under 1e-3). The terms are assembled by

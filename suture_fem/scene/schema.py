@@ -108,9 +108,9 @@ class SolverSection(_Section):
 #: declared here once (the scene checks them before anything is imported). Each is the ``option`` of
 #: one Quantity class in ``outputs/`` (checked when the class is defined, and by a test), and
 #: results.json's ``effects.outputs`` lists those left out.
-OUTPUT_QUANTITIES: tuple[str, ...] = ("usum", "seqv", "eptoeqv", "interface")
+OUTPUT_QUANTITIES: tuple[str, ...] = ("usum", "seqv", "eptoeqv", "interface", "dimple")
 #: Those of the slab only (``geometry.tissue_shape = "slab"``): the skin surface's normal displacement.
-SLAB_QUANTITIES: tuple[str, ...] = ()
+SLAB_QUANTITIES: tuple[str, ...] = ("dimple",)
 #: Those computed from the stress and strain at the quadrature points (one compiled expression per material).
 POINT_QUANTITIES: tuple[str, ...] = ("seqv", "eptoeqv")
 

@@ -56,7 +56,7 @@ SLAB = {**THREE_D, "geometry.tissue_shape": "slab"}
 
 
 def test_a_plain_slab_passes_the_checks_and_keeps_the_thread_in_the_fat():
-    scene = Scene.from_values(SLAB)
+    scene = Scene.from_values({**SLAB, "output.quantities": ["usum", "dimple"]})
     check_three_d(scene)
     slab = Geometry.from_section(scene.geometry).slab
     g = scene.geometry
@@ -81,6 +81,13 @@ def test_a_slab_that_does_not_hold_the_thread_in_the_fat_is_refused_in_one_line(
         Geometry.from_section(Scene.from_values({**SLAB, **values}).geometry)
     message = str(err.value)  # the schema's range ("expected ... >= 1 and <= 10") or the geometry's ("allowed ...")
     assert key in message and ("allowed" in message or "expected" in message) and "\n" not in message
+
+
+def test_the_dimple_output_needs_the_slab():
+    for values in ({**THREE_D}, {}):
+        with pytest.raises(SceneError) as err:
+            check_three_d(Scene.from_values({**values, "output.quantities": ["usum", "dimple"]}))
+        assert "output.quantities" in str(err.value) and "tissue_shape" in str(err.value)
 
 
 def test_the_slab_estimate_counts_its_block():

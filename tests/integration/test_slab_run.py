@@ -3,6 +3,8 @@ over the cone are reported per force, and the mesh estimate knows the slab's siz
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from suture_fem.geometry.estimate_3d import estimate_3d
@@ -17,8 +19,21 @@ COARSE_SLAB = [*COARSE_3D, 'geometry.tissue_shape="slab"', 'output.quantities=["
 
 
 @pytest.fixture(scope="module")
-def slab(tmp_path_factory):
-    return run_inprocess("paper", COARSE_SLAB, tmp_path_factory.mktemp("slab"))
+def slab_out(tmp_path_factory):
+    out = tmp_path_factory.mktemp("slab")
+    run_inprocess("paper", COARSE_SLAB, out)  # with the pictures
+    return out
+
+
+@pytest.fixture(scope="module")
+def slab(slab_out):
+    return json.loads((slab_out / "results.json").read_text())
+
+
+@pytest.mark.slow
+def test_the_slab_draws_its_skin_and_its_cut(slab_out):
+    for name in ("skin.png", "cut.png", "force_displacement.png"):
+        assert (slab_out / name).stat().st_size > 10_000, name
 
 
 @pytest.mark.slow

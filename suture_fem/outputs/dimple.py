@@ -3,9 +3,11 @@
 With ``geometry.tissue_shape = "slab"`` the skin is the free plane x = ``geometry.thread_depth_mm`` with
 outward normal +x (:mod:`suture_fem.geometry.slab`). Its normal displacement u_n = u . n is taken at the
 displacement nodes of the skin's facets (each node once, on its owning rank). The dimple depth over a cone
-is the largest inward displacement (-u_n) of the skin nodes whose y lies within the cone's axial span
-(base to apex): positive when the skin sinks there, negative when the whole skin over the cone rises. The
-profile is u_n along the skin's line above the thread (the symmetry plane z = 0), ordered by y.
+is the largest inward displacement (-u_n) of the skin nodes over the cone: y within the cone's axial span
+(base to apex) and |z| at most the thread's depth (the skin within one depth of the plane through the thread,
+where a load at that depth is felt most); positive when the skin sinks there, negative when the whole skin over
+the cone rises. It is measured from the skin's undeformed plane, so it includes the slab's overall tilt, not only
+the local depression. The profile is u_n along the skin's line above the thread (z = 0), ordered by y.
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ class Dimple(Quantity):
         """What the skin entries are."""
         return {
             "dimple_depth_mm": "per cone (far end first): the largest inward displacement -u.n of the skin surface's "
-                               "nodes whose y lies within the cone's span; n = +x, the skin's outward normal",
+                               "nodes over the cone (y within the cone's span, |z| <= the thread's depth); n = +x, the "
+                               "skin's outward normal",
             "skin_inward_mm": "largest inward displacement -u.n over the skin surface's nodes",
             "skin_outward_mm": "largest outward displacement u.n over the skin surface's nodes",
             "skin_profile_mm": "[y, u.n] at the skin's nodes on the line above the thread (z = 0), by y",
@@ -51,6 +54,7 @@ class Dimple(Quantity):
         self.nodes = np.unique(nodes[nodes < V.dofmap.index_map.size_local])  # owned: each node once
         self.xyz = setup.node_xy[self.nodes]
         self.spans = [(min(c.base_z, c.apex_z) * MM, max(c.base_z, c.apex_z) * MM) for c in tagged.geometry.cones]
+        self.footprint = tagged.geometry.slab.x_skin * MM  # the thread's depth: |z| within it is over the thread
 
     def totals(self, state: State) -> dict[str, Any]:
         """The skin's entries for the current state (collective)."""
@@ -58,9 +62,9 @@ class Dimple(Quantity):
         u = self.setup.physics.u.x.array.reshape(-1, gdim)[self.nodes]
         normal = (u @ np.asarray(SKIN_NORMAL)) / MM
         inward, outward = global_max(state.comm, -normal, self.xyz), global_max(state.comm, normal, self.xyz)
-        y = self.xyz[:, 1]
-        dimples = [global_max(state.comm, -normal[(y >= lo) & (y <= hi)], self.xyz[(y >= lo) & (y <= hi)])
-                   for lo, hi in self.spans]
+        y, near = self.xyz[:, 1], np.abs(self.xyz[:, 2]) <= self.footprint * (1 + 1e-9)
+        over = [near & (y >= lo) & (y <= hi) for lo, hi in self.spans]
+        dimples = [global_max(state.comm, -normal[cone], self.xyz[cone]) for cone in over]
         line = np.abs(self.xyz[:, 2]) < ON_LINE_M
         local = [[float(a) / MM, float(b)] for a, b in zip(y[line], normal[line])]
         profile = sorted(p for part in state.comm.allgather(local) for p in part)

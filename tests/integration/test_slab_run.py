@@ -55,7 +55,7 @@ def test_the_skin_outputs_cover_the_skin_and_each_cone(slab):
         assert len(state["dimple_depth_mm"]) == len(cones) == 1
         for value, at, cone in zip(state["dimple_depth_mm"], state["dimple_depth_at_mm"], cones):
             assert value <= state["skin_inward_mm"]  # the whole skin's largest inward displacement bounds each cone's
-            assert at[0] == pytest.approx(depth)  # on the skin
+            assert at[0] == pytest.approx(depth) and abs(at[2]) <= depth * (1 + 1e-9)  # on the skin, over the thread
             assert min(cone["base_z_mm"], cone["apex_z_mm"]) <= at[1] <= max(cone["base_z_mm"], cone["apex_z_mm"])
         profile = state["skin_profile_mm"]
         ys = [y for y, _ in profile]

@@ -91,5 +91,5 @@ def render_cut(grid: Any, png: str | Path, title: str = "") -> Path:
     fig = _figure(bounds)
     _panel(fig, render(cut, "von_mises_kpa", norm, plots.CMAP, bounds, tissue_only=True), bounds, norm, plots.CMAP,
            title or "cut through the thread (z = 0): tissue von Mises stress, suture grey",
-           "x (mm), the skin at the top", "von Mises stress (kPa), per-cell maximum; scale to the 99.5th percentile")
+           "x (mm), the skin at the top", "von Mises stress (kPa), cell maxima")
     return plots._save(fig, png)

@@ -177,6 +177,11 @@ def summary(results: Any, out: Path, written: list[Path]) -> str:
         if "load_share_n" in rec:
             shares = ", ".join(f"{name.replace('_', ' ')} {v:.3g}" for name, v in rec["load_share_n"].items())
             lines.append(f"      load passed to the tissue (N): {shares}")
+        if "dimple_depth_mm" in rec:
+            dimples = ", ".join(f"{v:.3g}" for v in rec["dimple_depth_mm"]) or "no cone"
+            lines.append(f"      skin (mm, along its outward normal): dimple over each cone {dimples}; largest inward "
+                         f"{rec['skin_inward_mm']:.3g} at {_at(rec['skin_inward_at_mm'])}, largest outward "
+                         f"{rec['skin_outward_mm']:.3g}")
     if "error_estimate" in results:
         lines.append(f"  {results['error_estimate'].get('usum_text', 'no error estimate')}")
     files = [out / "results.json", *written]

@@ -31,9 +31,14 @@ def slab(slab_out):
 
 
 @pytest.mark.slow
-def test_the_slab_draws_its_skin_and_its_cut(slab_out):
+def test_the_slab_draws_its_skin_and_its_cut_and_prints_its_dimples(slab_out, slab):
+    from suture_fem.cli.run_report import summary
+
     for name in ("skin.png", "cut.png", "force_displacement.png"):
         assert (slab_out / name).stat().st_size > 10_000, name
+    printed = summary(slab, slab_out, [])
+    for state in slab["at_forces"]:
+        assert f"dimple over each cone {state['dimple_depth_mm'][0]:.3g};" in printed
 
 
 @pytest.mark.slow

@@ -17,6 +17,7 @@ point data ``u_mm`` (displacement vector, 3 components with a zero third one) an
 an :class:`~suture_fem.outputs.Outputs`, ``von_mises_pa`` and ``eptoeqv`` (maxima per cell).
 :func:`render_usum` mirrors it (r -> -r) into the full longitudinal section like the paper's
 Figures 2 and 3, draws every panel on one colour scale in bands, and adds a labelled colour bar.
+A 3-D model's grid is its half model in its own (x, y, z) mm (:mod:`suture_fem.plots_slab` draws the slab's).
 Rendering is off-screen (no X server needed); pyvista draws the field, matplotlib lays out the
 panels, axes in mm and the colour bar.
 """
@@ -87,7 +88,8 @@ def field_grid(state: Any) -> Any:
     global_nodes = index_map.local_to_global(np.arange(len(x), dtype=np.int32))
     connectivity = cells.reshape(-1, nodes_per_cell).astype(np.int64) if num_owned else np.zeros((0, 1), np.int64)
     connectivity[:, 1:] = global_nodes[connectivity[:, 1:]]
-    u_mm = u.x.array.reshape(-1, 2)[: len(x)] / regions.MM
+    gdim = physics.mesh.geometry.dim
+    u_mm = u.x.array.reshape(-1, gdim)[: len(x)] / regions.MM
     tags = np.zeros(num_owned, dtype=np.int32)
     ct = physics.tagged.cell_tags
     in_range = ct.indices < num_owned
@@ -95,21 +97,24 @@ def field_grid(state: Any) -> Any:
     cell_data = {"region": tags}
     if outputs is not None and outputs.tensor_exprs:
         cell_data.update({k: v[:num_owned] for k, v in outputs.cell_maxima().items()})
-    parts = comm.gather((connectivity, types, global_nodes, x[:, :2] / regions.MM, u_mm, cell_data), root=0)
+    parts = comm.gather((connectivity, types, global_nodes, x[:, :gdim] / regions.MM, u_mm, cell_data), root=0)
     if comm.rank != 0:
         return None
     pv = _pyvista()
-    rz = np.zeros((index_map.size_global, 2))
-    u2 = np.zeros((index_map.size_global, 2))
+    rz = np.zeros((index_map.size_global, gdim))
+    u2 = np.zeros((index_map.size_global, gdim))
     for _, _, g, p, d, _ in parts:
         rz[g], u2[g] = p, d
     owned = [part for part in parts if len(part[1])]
     all_cells = np.concatenate([part[0].ravel() for part in owned])
     all_types = np.concatenate([part[1] for part in owned]).astype(np.uint8)
-    # x = z (along the thread), y = r: the thread lies horizontally in the pictures.
-    points = np.column_stack([rz[:, 1], rz[:, 0], np.zeros(len(rz))])
+    if gdim == 3:  # the 3-D half model as it is: (x, y, z) mm, the thread along y
+        points, vectors = rz, u2
+    else:  # x = z (along the thread), y = r: the thread lies horizontally in the pictures.
+        points = np.column_stack([rz[:, 1], rz[:, 0], np.zeros(len(rz))])
+        vectors = np.column_stack([u2[:, 1], u2[:, 0], np.zeros(len(u2))])
     grid = pv.UnstructuredGrid(all_cells, all_types, points)
-    grid.point_data["u_mm"] = np.column_stack([u2[:, 1], u2[:, 0], np.zeros(len(u2))])
+    grid.point_data["u_mm"] = vectors
     grid.point_data["usum_mm"] = np.linalg.norm(u2, axis=1)
     for k in cell_data:
         grid.cell_data[k] = np.concatenate([part[5][k] for part in owned])

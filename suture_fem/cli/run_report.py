@@ -1,8 +1,9 @@
 """What ``suture-fem run`` shows a person: pictures beside results.json and a short table of the answer.
 
-The pictures (USUM on the mirrored section at the last reported force, and the force-displacement
-curve) are drawn on rank 0 after the solve, from the model's state at its last reported force
-(:meth:`suture_fem.model.Model.at`); a picture that cannot be drawn is a warning, never a lost results.json.
+The pictures (USUM on the mirrored section at the last reported force, or the slab's skin and its cut through
+the thread, and the force-displacement curve) are drawn on rank 0 after the solve, from the model's state at its
+last reported force (:meth:`suture_fem.model.Model.at`); a picture that cannot be drawn is a warning, never a lost
+results.json.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from suture_fem.geometry.regions import TISSUE_REGIONS, WHOLE_TISSUE
 log = logging.getLogger("suture_fem")
 
 USUM_PNG, CURVE_PNG, INTERFACE_PNG = "usum.png", "force_displacement.png", "interface.png"
+#: The slab's pictures (3-D, ``geometry.tissue_shape = "slab"``; :mod:`suture_fem.plots_slab`).
+SKIN_PNG, CUT_PNG = "skin.png", "cut.png"
 
 
 class Pictures:
@@ -25,13 +28,16 @@ class Pictures:
         self.out, self.comm = out, comm
         self.grid: Any = None
         self.force_n: float | None = None
+        self.slab = False
 
     def capture(self, model: Any) -> None:
         """Keep the model's state at the last reported force of its last solve (rank 0's grid; collective)."""
         from suture_fem import plots
 
         reports = model.results.at_forces if model.results is not None else []
-        if reports and model.mesh.geometry.dim == 2:  # the USUM picture is of the 2-D section (3-D: the curve only)
+        self.slab = model.mesh.geometry.dim == 3 and model.scene.geometry.tissue_shape == "slab"
+        # the USUM picture is of the 2-D section, the skin and the cut of the slab (the 3-D cylinder: the curve only)
+        if reports and (model.mesh.geometry.dim == 2 or self.slab):
             with model.at(reports[-1].force_n) as report:
                 self.grid, self.force_n = plots.field_grid(model.outputs), report.force_n
 
@@ -46,6 +52,15 @@ class Pictures:
                         [self.grid], png, titles=[f"{scene_name}: USUM at F = {self.force_n:g} N"])),
                     (CURVE_PNG, lambda png: plots.plot_force_displacement(
                         {scene_name: results["force_displacement"]}, png))]
+        if self.slab:
+            from suture_fem import plots_slab
+
+            at = f"{scene_name}, F = {self.force_n:g} N"
+            drawings = [(SKIN_PNG, lambda png: plots_slab.render_skin(
+                            self.grid, png, f"{at}: skin surface, displacement along the outward normal")),
+                        (CUT_PNG, lambda png: plots_slab.render_cut(
+                            self.grid, png, f"{at}: cut through the thread (z = 0), tissue von Mises stress")),
+                        drawings[1]]
         last = results["at_forces"][-1] if results["at_forces"] else {}
         if "interface" in last:
             from suture_fem.interface_plot import plot_interface
@@ -53,7 +68,7 @@ class Pictures:
             drawings.append((INTERFACE_PNG, lambda png: plot_interface(last, png)))
         written = []
         for name, draw in drawings:
-            if name == USUM_PNG and self.grid is None:
+            if name in (USUM_PNG, SKIN_PNG, CUT_PNG) and self.grid is None:
                 continue
             try:
                 written.append(draw(self.out / name))
@@ -162,6 +177,11 @@ def summary(results: Any, out: Path, written: list[Path]) -> str:
         if "load_share_n" in rec:
             shares = ", ".join(f"{name.replace('_', ' ')} {v:.3g}" for name, v in rec["load_share_n"].items())
             lines.append(f"      load passed to the tissue (N): {shares}")
+        if "dimple_depth_mm" in rec:
+            dimples = ", ".join(f"{v:.3g}" for v in rec["dimple_depth_mm"]) or "no cone"
+            lines.append(f"      skin (mm, along its outward normal): dimple over each cone {dimples}; largest inward "
+                         f"{rec['skin_inward_mm']:.3g} at {_at(rec['skin_inward_at_mm'])}, largest outward "
+                         f"{rec['skin_outward_mm']:.3g}")
     if "error_estimate" in results:
         lines.append(f"  {results['error_estimate'].get('usum_text', 'no error estimate')}")
     files = [out / "results.json", *written]

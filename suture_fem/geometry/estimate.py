@@ -59,9 +59,13 @@ def estimate(geometry: Geometry, sizes: MeshSizes, degree: int) -> MeshEstimate:
     return MeshEstimate(int(cells), unknowns, BASE_GIB + unknowns * BYTES_PER_UNKNOWN / 2**30)
 
 
-def size_grid(g: Geometry, sizes: MeshSizes, n_r: int, n_z: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(r, z, h): the background size field on the cell centres of an n_r x n_z grid over the half-section (mm)."""
-    r = (np.arange(n_r) + 0.5) * g.r_epidermis / n_r
+def size_grid(g: Geometry, sizes: MeshSizes, n_r: int, n_z: int,
+              r_max: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(r, z, h): the background size field on the cell centres of an n_r x n_z grid over the half-section (mm).
+
+    The grid spans r up to ``r_max`` (default the epidermis' outer radius).
+    """
+    r = (np.arange(n_r) + 0.5) * (g.r_epidermis if r_max is None else r_max) / n_r
     z = (np.arange(n_z) + 0.5) * g.z_end / n_z
     rr, zz = np.meshgrid(r, z, indexing="ij")
     surface = np.full_like(zz, g.r_thread)

@@ -36,16 +36,34 @@ def estimate_3d(geometry: Geometry, sizes: MeshSizes, degree: int) -> MeshEstima
     """Estimated tetrahedra, unknowns (3 per node) and peak memory of one solve of the 3-D half model."""
     g = geometry
     n_r, n_z = 400, 800
-    rr, zz, h = size_grid(g, sizes, n_r, n_z)
+    r_max = g.r_epidermis if g.slab is None else math.hypot(max(g.slab.x_skin, -g.slab.x_deep), g.slab.half_width)
+    rr, zz, h = size_grid(g, sizes, n_r, n_z, r_max)
     curved = 2.0 * math.pi * g.r_thread / ELEMENTS_PER_TURN  # the thread's surface, graded like the suture size
     near = np.maximum(np.abs(rr - g.r_thread), 0.0)
     h = np.minimum(h, curved + (sizes.far - curved) * np.minimum(near / sizes.grading, 1.0))
     inside = (zz <= g.length) | (rr <= g.r_thread)
-    volume = math.pi * rr * (g.r_epidermis / n_r) * (g.z_end / n_z)
+    volume = _ring_areas(g, r_max, n_r)[:, None] * (g.z_end / n_z)
     cells = CALIBRATION * float(np.sum(inside * volume * 6.0 * math.sqrt(2.0) / h**3))
     nodes = cells * (VERTICES_PER_CELL if degree == 1 else P2_NODES_PER_CELL)
     unknowns = int(3 * nodes)
     return MeshEstimate(int(cells), unknowns, BASE_GIB + unknowns * BYTES_PER_UNKNOWN / 2**30)
+
+
+def _ring_areas(g: Geometry, r_max: float, n_r: int) -> np.ndarray:
+    """The half model's cross-section area (mm^2) between radii r and r + dr from the thread, per grid ring.
+
+    The cylinder's half ring is pi r dr; the slab's is the part of its rectangle x_deep <= x <= x_skin,
+    -half_width <= z <= 0 at that distance, counted on a fine grid of the rectangle.
+    """
+    dr = r_max / n_r
+    if g.slab is None:
+        return math.pi * (np.arange(n_r) + 0.5) * dr * dr
+    s, n = g.slab, 800
+    x = s.x_deep + (np.arange(n) + 0.5) * (s.x_skin - s.x_deep) / n
+    z = (np.arange(n) + 0.5) * s.half_width / n
+    r = np.hypot(x[:, None], z[None, :]).ravel()
+    cell = (s.x_skin - s.x_deep) * s.half_width / n**2
+    return np.histogram(r, bins=n_r, range=(0.0, r_max))[0] * cell
 
 
 def check_fits_3d(geometry: Geometry, mesh: MeshSection, memory_gib: float | None = None) -> MeshEstimate:

@@ -1,7 +1,8 @@
 """The 3-D cylinder model: the axisymmetric half-section revolved half a turn about the thread, meshed by gmsh.
 
 Every piece of the 2-D model (the three tissue layers, the thread, each cone's outline) is revolved by
-pi about the thread's axis with the OpenCASCADE kernel and the solids are fragmented together, so the
+pi about the thread's axis (for the slab, ``geometry.slab``, the suture's pieces only: its layers are boxes,
+:mod:`suture_fem.geometry.slab`) with the OpenCASCADE kernel and the solids are fragmented together, so the
 suture and the tissue share their interface nodes (tied) as in 2-D. The result is a half model:
 gmsh's (x, y, z) with the thread along y (the 2-D model's z, so the axial component keeps index 1),
 the solid in z <= 0 and the symmetry plane z = 0 (facet tag ``symmetry``). Regions and boundaries are
@@ -14,13 +15,15 @@ millimetres; call on one rank only.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from suture_fem.geometry.gmsh_model import MeshSizes, add_groups, owners, section_surfaces
+from suture_fem.geometry.gmsh_model import MeshSizes, add_groups, owners, section_surfaces, suture_surfaces
 from suture_fem.geometry.regions import FACET_TAGS, SUTURE, TISSUE, Facet
 from suture_fem.geometry.section import Geometry
+from suture_fem.geometry.slab import Slab
 from suture_fem.support import compat
 
 #: The revolution's angle: half a turn (the symmetry plane z = 0 closes the half model).
@@ -32,53 +35,104 @@ SAMPLES = 7
 
 
 def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "suture3d") -> None:
-    """Build and mesh the 3-D half model of the cylinder in the current gmsh model (one rank only)."""
+    """Build and mesh the 3-D half model of the cylinder, or of the slab, in the current gmsh model (one rank only).
+
+    The slab (``geometry.slab``): the three layers as boxes, the suture's pieces revolved as for the cylinder.
+    """
     import gmsh
 
     gmsh.model.add(name)
     occ = gmsh.model.occ
     g = geometry
-    solids = []
-    for s in section_surfaces(occ, g):
-        out = occ.revolve([(2, s)], 0, 0, 0, 0, 1, 0, ANGLE)
-        solids.append([(d, t) for d, t in out if d == 3])
+    if g.slab is None:
+        solids = [revolved(occ, s) for s in section_surfaces(occ, g)]
+        shape_face = _cylinder_face(g)
+    else:
+        layers = [[(3, occ.addBox(lo, 0.0, -g.slab.half_width, hi - lo, g.length, g.slab.half_width))]
+                  for lo, hi in g.slab.layers]
+        solids = [*layers, *[revolved(occ, s) for s in suture_surfaces(occ, g)]]
+        shape_face = _slab_face(g.slab, g.z_end)
     _, pieces = occ.fragment(solids[0], [dt for group in solids[1:] for dt in group])
     occ.synchronize()
     owner = owners(pieces, len(g.cones))
-    faces = classify_faces(g, owner)
+    faces = classify_faces(g, owner, shape_face)
     add_groups(3, owner, faces)
     _size_fields(g, sizes, faces)
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.generate(3)
 
 
-def extent(dim: int, tag: int) -> tuple[float, float, float, float, float]:
-    """(r_min, r_max, y_min, y_max, |z|_max) of an entity, sampled on its parametrisation (mm)."""
+def revolved(occ: Any, surface: int) -> list[tuple[int, int]]:
+    """The solid a section surface sweeps when revolved by :data:`ANGLE` about the thread's axis (y)."""
+    return [(d, t) for d, t in occ.revolve([(2, surface)], 0, 0, 0, 0, 1, 0, ANGLE) if d == 3]
+
+
+def samples(dim: int, tag: int) -> np.ndarray:
+    """Points (x, y, z) of an entity, sampled on a grid of its parametrisation (mm), one row each."""
     import gmsh
 
     lo, hi = gmsh.model.getParametrizationBounds(dim, tag)
     axes = [np.linspace(a, b, SAMPLES) for a, b in zip(lo, hi)]
     params = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1)
-    xyz = np.asarray(gmsh.model.getValue(dim, tag, params.tolist())).reshape(-1, 3)
+    return np.asarray(gmsh.model.getValue(dim, tag, params.tolist())).reshape(-1, 3)
+
+
+def extent(dim: int, tag: int) -> tuple[float, float, float, float, float]:
+    """(r_min, r_max, y_min, y_max, |z|_max) of an entity, sampled on its parametrisation (mm)."""
+    xyz = samples(dim, tag)
     r = np.hypot(xyz[:, 0], xyz[:, 2])
     y = xyz[:, 1]
     return float(r.min()), float(r.max()), float(y.min()), float(y.max()), float(np.abs(xyz[:, 2]).max())
 
 
-def classify_faces(g: Geometry, owner: dict[int, int]) -> dict[int, set[int]]:
-    """Boundary and interface faces: the 2-D model's rules on each face's (r, y) extent, and the symmetry plane."""
+#: A rule for the faces that only one tissue shape has: sampled points (x, y, z) -> their facet tag, or None.
+ShapeFace = Callable[[np.ndarray], "Facet | None"]
+
+
+def _cylinder_face(g: Geometry) -> ShapeFace:
+    """The cylinder's outer epidermis surface r = r_epidermis: fixed (``outer``)."""
+    tol = 1e-6 * max(g.z_end, 1.0)
+
+    def face(xyz: np.ndarray) -> Facet | None:
+        return Facet.OUTER if np.all(np.abs(np.hypot(xyz[:, 0], xyz[:, 2]) - g.r_epidermis) < tol) else None
+
+    return face
+
+
+def _slab_face(slab: Slab, z_end: float) -> ShapeFace:
+    """The slab's skin x = x_skin (``skin``, free), and its deep face and lateral face (``outer``, fixed)."""
+    tol = 1e-6 * max(z_end, 1.0)
+
+    def face(xyz: np.ndarray) -> Facet | None:
+        if np.all(np.abs(xyz[:, 0] - slab.x_skin) < tol):
+            return Facet.SKIN
+        if np.all(np.abs(xyz[:, 0] - slab.x_deep) < tol) or np.all(np.abs(xyz[:, 2] + slab.half_width) < tol):
+            return Facet.OUTER
+        return None
+
+    return face
+
+
+def classify_faces(g: Geometry, owner: dict[int, int], shape_face: ShapeFace) -> dict[int, set[int]]:
+    """Boundary and interface faces: the symmetry plane, the shape's own faces, then the 2-D rules on (r, y).
+
+    ``shape_face`` finds the faces of the tissue shape (the cylinder's outer surface, the slab's skin and fixed
+    faces); the rest by the 2-D model's rules on each face's sampled (r, y) extent and the regions on its sides.
+    """
     import gmsh
 
     tol = 1e-6 * max(g.z_end, 1.0)
     out: dict[int, set[int]] = {tag: set() for tag in FACET_TAGS.values()}
     for _, s in gmsh.model.getEntities(2):
-        r0, r1, y0, y1, zmax = extent(2, s)
+        xyz = samples(2, s)
+        y0, y1, zmax = float(xyz[:, 1].min()), float(xyz[:, 1].max()), float(np.abs(xyz[:, 2]).max())
         up, _ = gmsh.model.getAdjacencies(2, s)
         sides = {owner[v] for v in up}
+        own = shape_face(xyz)
         if zmax < tol and len(up) == 1:
             out[Facet.SYMMETRY].add(s)
-        elif abs(r0 - g.r_epidermis) < tol and abs(r1 - g.r_epidermis) < tol:
-            out[Facet.OUTER].add(s)
+        elif own is not None:
+            out[own].add(s)
         elif abs(y0 - g.z_end) < tol and abs(y1 - g.z_end) < tol:
             out[Facet.PULL_FACE].add(s)
         elif abs(y0 - g.length) < tol and abs(y1 - g.length) < tol and sides <= set(TISSUE):

@@ -85,9 +85,14 @@ def section_surfaces(occ: Any, g: Geometry) -> list[int]:
         occ.addRectangle(0.0, 0.0, 0.0, g.r_hypodermis, g.length),
         occ.addRectangle(g.r_hypodermis, 0.0, 0.0, g.r_dermis - g.r_hypodermis, g.length),
         occ.addRectangle(g.r_dermis, 0.0, 0.0, g.r_epidermis - g.r_dermis, g.length),
-        occ.addRectangle(0.0, 0.0, 0.0, g.r_thread, g.z_end),
-        *[_add_outline(occ, cone.outline) for cone in g.cones],
+        *suture_surfaces(occ, g),
     ]
+
+
+def suture_surfaces(occ: Any, g: Geometry) -> list[int]:
+    """The suture's pieces of the half-section as OCC surfaces: the thread, then each cone."""
+    thread = occ.addRectangle(0.0, 0.0, 0.0, g.r_thread, g.z_end)
+    return [thread, *[_add_outline(occ, cone.outline) for cone in g.cones]]
 
 
 def owners(pieces: list[list[tuple[int, int]]], n_cones: int) -> dict[int, int]:

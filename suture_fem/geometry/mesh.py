@@ -195,7 +195,7 @@ def describe(tagged: TaggedMesh) -> dict[str, Any]:
     }
     if m.geometry.dim == 3:
         kind = f"{tagged.geometry.kind} (as in 2-D)" if tagged.geometry.cones else "none"
-        out["model_3d"] = MODEL_3D | {"cones": kind}
+        out["model_3d"] = (MODEL_3D if tagged.geometry.slab is None else MODEL_SLAB) | {"cones": kind}
     return out
 
 
@@ -206,6 +206,17 @@ MODEL_3D = {
                 "energies, forces and reactions are those of the whole solid (the half's doubled)",
     "axes": "x, y, z in mm; the thread along y (the 2-D model's z), r = sqrt(x^2 + z^2)",
     "cells": "linear tetrahedra (straight-sided), the 2-D section revolved by pi",
+}
+#: results.json's description of the slab (``geometry.tissue_shape = "slab"``).
+MODEL_SLAB = {
+    "tissue_shape": "slab",
+    "symmetry": "half model: the solid z <= 0, symmetry plane z = 0 through the thread's axis and normal to the skin "
+                "(u_z = 0 on it); energies, forces and reactions are those of the whole solid (the half's doubled)",
+    "axes": "x, y, z in mm; the thread along y on x = z = 0, the skin surface x = geometry.thread_depth_mm (outward "
+            "normal +x), the deep face x = -geometry.hypodermis_mm",
+    "supports": "u = 0 on the deep face and on the lateral face z = -geometry.slab_half_width_mm; the skin surface and "
+                "the tissue's end faces y = 0 and y = L are free",
+    "cells": "linear tetrahedra (straight-sided): the layers as boxes, the thread and cones revolved by pi",
 }
 
 

@@ -44,6 +44,8 @@ class Facet(IntEnum):
     CONE_CONTACT = 20
     #: the 3-D half model's symmetry plane through the thread (``geometry.dimension = 3``)
     SYMMETRY = 21
+    #: the slab's flat free skin surface (``geometry.tissue_shape = "slab"``)
+    SKIN = 22
 
 
 #: The material regions, tissue layers inside out, then the suture.

@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from suture_fem.geometry.slab import Slab
 from suture_fem.scene.schema import GeometrySection
 from suture_fem.support.errors import SceneError
 
@@ -73,6 +74,7 @@ class Geometry:
         length: tissue length L.
         z_end: axial position of the thread's pulled end face.
         cones: the cones, far end first.
+        slab: the slab's planes (3-D ``geometry.tissue_shape = "slab"``), None for the cylinder.
     """
 
     r_thread: float
@@ -83,6 +85,7 @@ class Geometry:
     z_end: float
     cones: list[Cone] = field(default_factory=list)
     kind: str = "hollow"
+    slab: Slab | None = None
 
     @property
     def corners(self) -> list[Point]:
@@ -136,6 +139,7 @@ class Geometry:
             z_end=length + g.thread_free_length_mm,
             cones=cones,
             kind=g.cone_kind,
+            slab=Slab.from_section(g) if g.tissue_shape == "slab" and g.dimension == 3 else None,
         )
 
     def describe(self) -> dict[str, Any]:
@@ -146,6 +150,7 @@ class Geometry:
             "layer_outer_radii_mm": [self.r_hypodermis, self.r_dermis, self.r_epidermis],
             "cones": [{"base_z_mm": c.base_z, "apex_z_mm": c.apex_z} for c in self.cones],
             "corners_mm": [list(p) for p in self.corners],
+            **({"slab": self.slab.describe()} if self.slab is not None else {}),
         }
 
 

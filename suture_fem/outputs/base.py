@@ -199,6 +199,8 @@ class Quantity:
     """
 
     option: ClassVar[str | None] = None
+    #: computed for the slab only: its ``where`` texts are in the record only when it is asked for
+    slab_only: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """A quantity's option is one of the names the scene declares (``scene.schema.OUTPUT_QUANTITIES``)."""

@@ -19,6 +19,7 @@ import numpy as np
 from suture_fem.geometry.regions import TISSUE_REGIONS, WHOLE_TISSUE
 from suture_fem.outputs.base import REPORT_REGIONS, Maximum, Quantity, Setup, State
 from suture_fem.outputs.critical_distance import CriticalDistance
+from suture_fem.outputs.dimple import Dimple
 from suture_fem.outputs.energy import StrainEnergy
 from suture_fem.outputs.eptoeqv import Eptoeqv
 from suture_fem.outputs.fields import cell_maxima
@@ -34,7 +35,7 @@ from suture_fem.scene.schema import OutputSection
 
 #: Every quantity, in the order of the record; a scene's ``output.quantities`` selects the optional ones.
 QUANTITIES: tuple[type[Quantity], ...] = (ThreadEnd, StrainEnergy, Reaction, Usum, Seqv, Eptoeqv, FilletPeak,
-                                          CriticalDistance, JRange, Interface)
+                                          CriticalDistance, JRange, Interface, Dimple)
 
 #: (value, location in mm, region) of the largest maximum found so far.
 Best = tuple[float, Any, str]
@@ -50,7 +51,8 @@ class Outputs:
         self.setup = Setup(physics, output, quantities)
         self.active = [cls(self.setup) for cls in QUANTITIES if cls.wanted(quantities)]
         self.thread_end = ThreadEnd(self.setup)
-        self.where = {name: text for cls in QUANTITIES for name, text in cls.describe(output).items()}
+        self.where = {name: text for cls in QUANTITIES if cls.wanted(quantities) or not cls.slab_only
+                      for name, text in cls.describe(output).items()}
 
     @property
     def tensor_exprs(self) -> dict[int, Any]:

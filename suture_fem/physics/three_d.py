@@ -1,6 +1,6 @@
 """What a 3-D scene (``geometry.dimension = 3``) may call for; the rest is refused in one line before meshing.
 
-The 3-D model is the cylinder half model (:mod:`suture_fem.geometry.gmsh_3d`): the same materials, the
+The 3-D model is the cylinder or the slab half model (:mod:`suture_fem.geometry.gmsh_3d`): the same materials, the
 tied suture-tissue interface, the pull as a force on the thread's end face, the static load ramp, and
 the USUM, SEQV and EPTOEQV maxima (with the reaction, energy and end displacement). What is built in
 2-D only is listed here with the key that asks for it.
@@ -10,12 +10,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from suture_fem.scene.schema import OUTPUT_QUANTITIES
+from suture_fem.scene.schema import OUTPUT_QUANTITIES, SLAB_QUANTITIES
 from suture_fem.support.errors import SceneError
 
 #: (scene key, the value a 3-D scene must have, what it would ask for). Each is refused in 3-D.
 UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
-    ("geometry.tissue_shape", "cylinder", 'the slab ("slab") is not built yet'),
     ("geometry.cone_fillet_mm", 0.0, "rounded rims are meshed in 2-D only"),
     ("mesh.geometry_degree", 1, "quadratic cells are built in 2-D only"),
     ("effects.inertia", False, "inertia is built in 2-D only"),
@@ -36,11 +35,21 @@ def _value(scene: Any, dotted: str) -> Any:
 
 
 def check_three_d(scene: Any) -> None:
-    """SceneError (one line naming the key) for anything a 3-D scene asks for that is built in 2-D only."""
+    """SceneError (one line naming the key) for anything a 3-D scene asks for that is built in 2-D only.
+
+    Also the slab's: ``geometry.tissue_shape = "slab"`` needs ``geometry.dimension = 3``, and its outputs
+    (``output.quantities``' "dimple") need the slab.
+    """
+    slab_outputs = [q for q in SLAB_QUANTITIES if q in scene.output.quantities]
+    if scene.geometry.tissue_shape != "slab" and slab_outputs:
+        others = ", ".join(q for q in OUTPUT_QUANTITIES if q not in SLAB_QUANTITIES)
+        raise SceneError(f'scene key output.quantities = {list(scene.output.quantities)}: "{slab_outputs[0]}" (the '
+                         "skin surface's displacement) needs geometry.tissue_shape = \"slab\" and geometry.dimension "
+                         f"= 3; allowed here: any of {others}")
     if scene.geometry.dimension != 3:
         if scene.geometry.tissue_shape != "cylinder":
-            raise SceneError('scene key geometry.tissue_shape = "slab" needs geometry.dimension = 3 (and is not built '
-                             'yet); allowed in 2-D: "cylinder"')
+            raise SceneError('scene key geometry.tissue_shape = "slab" needs geometry.dimension = 3; allowed in 2-D: '
+                             '"cylinder"')
         return
     for dotted, wanted, why in UNSUPPORTED:
         value = _value(scene, dotted)

@@ -52,6 +52,8 @@ class GeometrySection(_Section):
     margin_far_mm: float = key(_length(1000.0), MM)
     dimension: int = key(Rule("int", lo=2, hi=3))
     tissue_shape: str = key(Rule("str", choices=("cylinder", "slab")))
+    thread_depth_mm: float = key(Rule("float", lo=1.0, hi=10.0), MM)
+    slab_half_width_mm: float = key(Rule("float", lo=2.0, hi=100.0), MM)
 
 
 @section("mesh")
@@ -106,7 +108,9 @@ class SolverSection(_Section):
 #: declared here once (the scene checks them before anything is imported). Each is the ``option`` of
 #: one Quantity class in ``outputs/`` (checked when the class is defined, and by a test), and
 #: results.json's ``effects.outputs`` lists those left out.
-OUTPUT_QUANTITIES: tuple[str, ...] = ("usum", "seqv", "eptoeqv", "interface")
+OUTPUT_QUANTITIES: tuple[str, ...] = ("usum", "seqv", "eptoeqv", "interface", "dimple")
+#: Those of the slab only (``geometry.tissue_shape = "slab"``): the skin surface's normal displacement.
+SLAB_QUANTITIES: tuple[str, ...] = ("dimple",)
 #: Those computed from the stress and strain at the quadrature points (one compiled expression per material).
 POINT_QUANTITIES: tuple[str, ...] = ("seqv", "eptoeqv")
 

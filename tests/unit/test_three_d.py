@@ -10,6 +10,9 @@ import pytest
 import ufl
 from mpi4py import MPI
 
+from suture_fem.geometry.estimate_3d import estimate_3d
+from suture_fem.geometry.gmsh_model import MeshSizes
+from suture_fem.geometry.section import Geometry
 from suture_fem.outputs.base import hencky_equivalent, von_mises
 from suture_fem.physics import kinematics
 from suture_fem.physics.three_d import UNSUPPORTED, check_three_d
@@ -20,7 +23,7 @@ from suture_fem.support.errors import SceneError
 THREE_D = {"geometry.dimension": 3, "output.critical_distance_mm": 0.0, "output.quantities": ["usum", "seqv"]}
 #: A value of each key that a 3-D scene refuses.
 REFUSED = {
-    "geometry.tissue_shape": "slab", "geometry.cone_fillet_mm": 0.04, "mesh.geometry_degree": 2,
+    "geometry.cone_fillet_mm": 0.04, "mesh.geometry_degree": 2,
     "effects.inertia": True, "effects.gravity": True, "effects.incompressibility": "mixed", "effects.suture": "rigid",
     "effects.thread_interface": "sliding", "effects.cone_interface": "frictionless",
     "loading.control": "displacement", "output.critical_distance_mm": 0.1,
@@ -47,6 +50,53 @@ def test_the_interface_output_and_the_slab_in_2d_are_refused():
         check_three_d(Scene.from_values({**THREE_D, "output.quantities": ["usum", "interface"]}))
     with pytest.raises(SceneError, match="geometry.tissue_shape"):
         check_three_d(Scene.from_values({"geometry.tissue_shape": "slab"}))
+
+
+SLAB = {**THREE_D, "geometry.tissue_shape": "slab"}
+
+
+def test_a_plain_slab_passes_the_checks_and_keeps_the_thread_in_the_fat():
+    scene = Scene.from_values({**SLAB, "output.quantities": ["usum", "dimple"]})
+    check_three_d(scene)
+    slab = Geometry.from_section(scene.geometry).slab
+    g = scene.geometry
+    assert slab.x_skin == g.thread_depth_mm and slab.x_deep == -g.hypodermis_mm
+    assert slab.x_skin - slab.x_dermis == pytest.approx(g.epidermis_mm)
+    assert slab.x_dermis - slab.x_hypodermis == pytest.approx(g.dermis_mm)
+    assert slab.x_hypodermis > g.cone_base_diameter_mm / 2  # the cones lie below the dermis
+    assert Geometry.from_section(Scene.from_values(THREE_D).geometry).slab is None
+
+
+@pytest.mark.parametrize("values, key", [
+    ({"geometry.thread_depth_mm": 0.5}, "geometry.thread_depth_mm"),  # outside the schema's 1-10 mm
+    ({"geometry.thread_depth_mm": 11.0}, "geometry.thread_depth_mm"),
+    ({"geometry.thread_depth_mm": 1.2}, "geometry.thread_depth_mm"),  # the cones (radius 0.635) reach the dermis
+    ({"geometry.thread_depth_mm": 1.0, "geometry.cones": 0, "geometry.dermis_mm": 1.0}, "geometry.thread_depth_mm"),
+    ({"geometry.slab_half_width_mm": 1.0}, "geometry.slab_half_width_mm"),
+    ({"geometry.slab_half_width_mm": 2.0, "geometry.cone_base_diameter_mm": 4.0, "geometry.hypodermis_mm": 5.0,
+      "geometry.thread_depth_mm": 4.0}, "geometry.slab_half_width_mm"),
+])
+def test_a_slab_that_does_not_hold_the_thread_in_the_fat_is_refused_in_one_line(values, key):
+    with pytest.raises(SceneError) as err:
+        Geometry.from_section(Scene.from_values({**SLAB, **values}).geometry)
+    message = str(err.value)  # the schema's range ("expected ... >= 1 and <= 10") or the geometry's ("allowed ...")
+    assert key in message and ("allowed" in message or "expected" in message) and "\n" not in message
+
+
+def test_the_dimple_output_needs_the_slab():
+    for values in ({**THREE_D}, {}):
+        with pytest.raises(SceneError) as err:
+            check_three_d(Scene.from_values({**values, "output.quantities": ["usum", "dimple"]}))
+        assert "output.quantities" in str(err.value) and "tissue_shape" in str(err.value)
+
+
+def test_the_slab_estimate_counts_its_block():
+    # the default slab (half width 10 mm, 6.6 mm thick) holds more tissue than the cylinder (radius 3.6 mm)
+    scene = Scene.from_values({**SLAB, "mesh.degree": 1})
+    sizes = MeshSizes.from_section(scene.mesh)
+    slab = estimate_3d(Geometry.from_section(scene.geometry), sizes, 1)
+    cylinder = estimate_3d(Geometry.from_section(Scene.from_values({**THREE_D, "mesh.degree": 1}).geometry), sizes, 1)
+    assert slab.cells > cylinder.cells > 0
 
 
 def test_3d_deformation_gradient_and_half_model_weight():

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from suture_fem.scene.model import Scene
-from suture_fem.scene.schema import OUTPUT_QUANTITIES, POINT_QUANTITIES, TRACK_INTERFACES
+from suture_fem.scene.schema import OUTPUT_QUANTITIES, POINT_QUANTITIES, SLAB_QUANTITIES, TRACK_INTERFACES
 from suture_fem.support.errors import SceneError
 
 #: The output quantities a scene may request (``output.quantities``), in the order they are computed.
@@ -47,6 +47,8 @@ class Effects:
     hold_s: float = 0.0
     thread_interface: str = "tied"
     cone_interface: str = "tied"
+    #: the tissue is the slab (``geometry.tissue_shape = "slab"``): its outputs may be asked for
+    slab: bool = False
 
     @classmethod
     def from_scene(cls, scene: Scene) -> Effects:
@@ -61,6 +63,7 @@ class Effects:
             hold_s=scene.loading.hold_s,
             thread_interface=e.thread_interface,
             cone_interface=e.cone_interface,
+            slab=scene.geometry.tissue_shape == "slab",
         )
 
     @property
@@ -170,7 +173,7 @@ class Effects:
         return {"solved": False, "left_out": "loading.hold_s = 0: no hold"}
 
     def _outputs(self) -> dict[str, Any]:
-        left = [q for q in QUANTITIES if q not in self.quantities]
+        left = [q for q in QUANTITIES if q not in self.quantities and (self.slab or q not in SLAB_QUANTITIES)]
         rec: dict[str, Any] = {"computed": list(self.quantities),
                                "left_out": {q: "not in output.quantities: never computed" for q in left}}
         if not set(POINT_QUANTITIES) & set(self.quantities):

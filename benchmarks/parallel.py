@@ -1,7 +1,8 @@
 """Benchmark: one scene on 1 and 2 MPI ranks, and sweep throughput for two ways of using 2 ranks.
 
 1. One scene (default: the paper scene, 4 cones, degree 2, 4 N) solved as `suture-fem run` solves it
-   under `mpirun -n 1` and `-n 2`: wall time, speed-up, and the peak resident memory of every rank.
+   under `mpirun -n 1` and `-n 2`: wall time, speed-up, the CPU seconds and peak resident memory of every
+   rank, and the memory the package estimated before meshing (its "mesh estimate" line).
 2. One sweep (default: 1-4 cones x 1, 2 N at degree 1, 8 scenes) under `mpirun -n 2` as one group
    of 2 ranks (`--ranks-per-scene 2`) and as two groups of 1 rank: scenes per minute.
 
@@ -21,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import resource
 import shutil
 import subprocess
@@ -65,17 +67,18 @@ def solve(job: dict, comm) -> int:
 
 
 def worker(job: dict) -> int:
-    """Solve JOB on every rank, then write every rank's peak memory to $BENCH_MEMORY."""
+    """Solve JOB on every rank, then write every rank's peak memory and CPU seconds to $BENCH_MEMORY."""
     from mpi4py import MPI
 
     from suture_fem.support.logging import setup_logging
 
     setup_logging(MPI.COMM_WORLD)
     code = solve(job, MPI.COMM_WORLD)
-    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
-    peaks = MPI.COMM_WORLD.gather(round(peak_mb, 1), root=0)
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    peaks = MPI.COMM_WORLD.gather(round(usage.ru_maxrss / 1024.0, 1), root=0)  # kB on Linux
+    cpu = MPI.COMM_WORLD.gather(round(usage.ru_utime + usage.ru_stime, 1), root=0)
     if MPI.COMM_WORLD.rank == 0:
-        write_json(os.environ["BENCH_MEMORY"], {"peak_rss_mb_per_rank": peaks})
+        write_json(os.environ["BENCH_MEMORY"], {"peak_rss_mb_per_rank": peaks, "cpu_s_per_rank": cpu})
     return code
 
 
@@ -91,7 +94,9 @@ def launch(ranks: int, job: dict, tmp: Path, ok: tuple[int, ...] = (0,)) -> dict
     wall = time.perf_counter() - t0
     if proc.returncode not in ok:
         raise SystemExit(f"{json.dumps(job)} on {ranks} rank(s) exited {proc.returncode}:\n{proc.stderr}")
+    estimate = re.search(r"mesh estimate: .*?([0-9.]+) GiB", proc.stdout + proc.stderr)
     return {"ranks": ranks, "process_wall_s": round(wall, 2), **json.loads(memory.read_text()),
+            "estimated_memory_gib": float(estimate.group(1)) if estimate else None,
             "load_1min_before": round(load_before, 2), "load_1min_after": round(os.getloadavg()[0], 2)}
 
 
@@ -164,8 +169,9 @@ def main() -> None:
         if not args.skip_scene:
             record["one_scene"] = bench_scene(args.scene, args.overrides, tmp)
             print(f"One scene ({args.scene} {' '.join(args.overrides)}), {os.cpu_count()} CPUs:")
-            print(table(record["one_scene"], ["ranks", "dofs", "solve_wall_s", "speedup", "assembly_s",
-                                              "linear_solve_s", "peak_rss_mb_per_rank", "load_1min_before",
+            print(table(record["one_scene"], ["ranks", "dofs", "process_wall_s", "solve_wall_s", "speedup",
+                                              "assembly_s", "linear_solve_s", "cpu_s_per_rank", "peak_rss_mb_per_rank",
+                                              "estimated_memory_gib", "newton_iterations", "load_1min_before",
                                               "load_1min_after"]))
         if not args.skip_sweep:
             record["sweep_throughput"] = bench_sweep(args.sweep_cones, args.sweep_forces, sweep_set, tmp)

@@ -10,9 +10,12 @@ rung of benchmarks/three_d.py), pulled to 4 N with reports at 1, 2 and 3 N, ``--
   cylinder on the same sizes, 1 and 4 cones, 1 and 4 N: USUM, the thread end, the energy, the tissue's SEQV and
   EPTOEQV (peak and outside the rims).
 * ``dimple``: the dimple depth over each cone at 1-4 N, 1 and 4 cones, thread depths 3.6 and 2.0 mm.
+* ``margins``: the block's free end faces moved from 3 mm (geometry.margin_far_mm / margin_pull_mm, the
+  cylinder's default) to farther from the cones (``--margins``, each end alone and both): the dimple over each
+  cone, USUM and the skin's extremes (the tilt), 1 and 4 N.
 
     .venv/bin/python benchmarks/slab.py [--parts compare dimple width] [--factor 4] [--cones 1 4]
-        [--out benchmarks/out/slab]
+        [--margins 3 10 20] [--out benchmarks/out/slab]
 """
 
 from __future__ import annotations
@@ -36,6 +39,8 @@ SLAB = [*BASE_3D[:-1], 'output.quantities=["usum","seqv","eptoeqv","dimple"]', '
 DEPTHS = (3.6, 2.0)
 #: The lateral half widths (mm): the default, then twice it (``--widths`` changes them).
 WIDTHS = [20.0, 40.0]
+#: The block's end margins (mm, far and pulled end alike): the default first (``--margins`` changes them).
+MARGINS = [3.0, 10.0]
 #: Runs already made in this process, by label (the compare, width and dimple parts share some).
 DONE: dict[str, dict] = {}
 
@@ -47,11 +52,16 @@ def solve(label: str, overrides: list[str], tmp: Path) -> dict:
     return DONE[label]
 
 
-def slab(cones: int, depth: float, width: float, factor: float, tmp: Path) -> dict:
-    """The slab with ``cones`` cones, the thread ``depth`` mm under the skin, lateral faces ``width`` mm away."""
-    return solve(f"slab {cones} cones d{depth:g} w{width:g} x{factor:g}",
+def slab(cones: int, depth: float, width: float, factor: float, tmp: Path, margins: tuple | None = None) -> dict:
+    """The slab with ``cones`` cones, the thread ``depth`` mm under the skin, lateral faces ``width`` mm away.
+
+    ``margins`` (far, pulled end; mm) moves the block's free end faces; None keeps the scene's (3 mm each).
+    """
+    ends = [] if margins is None else [f"geometry.margin_far_mm={margins[0]}", f"geometry.margin_pull_mm={margins[1]}"]
+    tag = "" if margins is None else f" m{margins[0]:g}-{margins[1]:g}"
+    return solve(f"slab {cones} cones d{depth:g} w{width:g} x{factor:g}{tag}",
                  [*SLAB, *LOAD, f"geometry.cones={cones}", f"geometry.thread_depth_mm={depth}",
-                  f"geometry.slab_half_width_mm={width}", *sized(factor)], tmp)
+                  f"geometry.slab_half_width_mm={width}", *ends, *sized(factor)], tmp)
 
 
 def cylinder(cones: int, factor: float, tmp: Path) -> dict:
@@ -122,6 +132,28 @@ def dimple(factor: float, cones_list: list[int], tmp: Path) -> list[dict]:
     return rows
 
 
+def margins(factor: float, cones_list: list[int], tmp: Path) -> list[dict]:
+    """The dimple over each cone, USUM and the skin's extremes as the block's free ends move away from the cones."""
+    base, *far = MARGINS
+    cases = [(base, base)] + [c for m in far for c in ((m, base), (base, m), (m, m))]
+    rows = []
+    for cones in cones_list:
+        for far_mm, pull_mm in cases:
+            res = slab(cones, DEPTHS[0], WIDTHS[0], factor, tmp, (far_mm, pull_mm))
+            for force in (1.0, 4.0):
+                s = state(res, force)
+                rows.append({"cones": cones, "margin_far_mm": far_mm, "margin_pull_mm": pull_mm, "force_n": force,
+                             "dofs": res.get("dofs"), "cpu_s": res["process_cpu_s"],
+                             "peak_memory_mb": res["peak_memory_mb"], "usum_mm": s["usum_mm"],
+                             "dimple_depth_mm": [round(d, 4) for d in s["dimple_depth_mm"] or []],
+                             "dimple_depth_at_mm": at(res, force).get("dimple_depth_at_mm"),
+                             "skin_inward_mm": s["skin_inward_mm"], "skin_outward_mm": s["skin_outward_mm"],
+                             "skin_inward_at_mm": at(res, force).get("skin_inward_at_mm"),
+                             "skin_outward_at_mm": at(res, force).get("skin_outward_at_mm"),
+                             "skin_profile_mm": at(res, force).get("skin_profile_mm")})
+    return rows
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--parts", nargs="+", default=["compare", "dimple", "width"])
@@ -129,12 +161,14 @@ def main() -> int:
     parser.add_argument("--cones", type=int, nargs="+", default=[1, 4])
     parser.add_argument("--tag", default="", help="appended to the JSON files' names")
     parser.add_argument("--widths", type=float, nargs=2, default=WIDTHS)
+    parser.add_argument("--margins", type=float, nargs="+", default=MARGINS)
     parser.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "slab"))
     args = parser.parse_args()
     WIDTHS[:] = args.widths
+    MARGINS[:] = args.margins
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    parts = {"width": width, "compare": compare, "dimple": dimple}
+    parts = {"width": width, "compare": compare, "dimple": dimple, "margins": margins}
     columns = {
         "width": ["cones", "force_n", *[f"usum_mm_w{w:g}" for w in WIDTHS], "usum_change",
                   *[f"dimples_w{w:g}" for w in WIDTHS], *[f"dofs_w{w:g}" for w in WIDTHS]],
@@ -142,6 +176,8 @@ def main() -> int:
                     *QUANTITIES, *[f"tissue_{q}" for q in TISSUE]],
         "dimple": ["cones", "thread_depth_mm", "force_n", "dofs", "cpu_s", "peak_memory_mb", "dimple_depth_mm",
                    "skin_inward_mm", "skin_outward_mm", "usum_mm"],
+        "margins": ["cones", "margin_far_mm", "margin_pull_mm", "force_n", "dofs", "cpu_s", "peak_memory_mb",
+                    "usum_mm", "dimple_depth_mm", "skin_inward_mm", "skin_outward_mm"],
     }
     columns["width"] = ["cones", "force_n", *[f"usum_mm_w{w:g}" for w in WIDTHS], "usum_change",
                         *[f"dimples_w{w:g}" for w in WIDTHS], *[f"dofs_w{w:g}" for w in WIDTHS]]

@@ -67,6 +67,7 @@ class SolverRecord:
     line_search_switches: int
     residual_floor_n: float
     solves_at_residual_floor: int
+    leaps: int = 0
 
     @classmethod
     def from_history(cls, history: Any) -> SolverRecord:
@@ -82,11 +83,12 @@ class SolverRecord:
             line_search_switches=history.line_search_switches,
             residual_floor_n=history.residual_floor_n,
             solves_at_residual_floor=history.floor_above_atol,
+            leaps=getattr(history, "leaps", 0),
         )
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON form (top-level keys of results.json)."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        """JSON form (top-level keys of results.json; ``leaps`` only where the ramp took one)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "leaps" or self.leaps}
 
 
 @dataclass(eq=False)

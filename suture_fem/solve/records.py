@@ -43,6 +43,8 @@ class RampResult:
     #: Newton iterations whose Jacobian had negative pivots and was shifted (solve/inertia.py)
     inertia_shifts: int = 0
     line_search_switches: int = 0
+    #: long steps tried where a ramp with contact would have stopped (solve/stepping.py)
+    leaps: int = 0
     #: largest round-off floor of the residual (N) used as the absolute tolerance, and in how many solves
     #: it was above ``solver.atol``
     residual_floor_n: float = 0.0

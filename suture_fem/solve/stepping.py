@@ -11,6 +11,9 @@
 * Futile stop. :data:`FUTILE_CUTBACKS` cutbacks in a row at the same load (the step 2^k times shorter
   and still failing) stop the path there with the diagnosis, instead of halving on to ``solver.min_step``
   at hundreds of Newton iterations; the diagnosis says what to change (:func:`advice`).
+* Leap (contact only). Where a contact state ends at a load (pressed tissue released), the next equilibrium
+  lies further on and shorter steps never reach it: before stopping, the path tries one step to the next
+  milestone (report point or end) from there; :data:`LEAPS` at most, counted in results.json.
 * Predictor. Each trial starts from an extrapolation of the converged path: on a path whose loads are
   linear in s (the pull, the weight) from the quadratic through the last two converged states with the
   tangent du/ds at the last one (:meth:`~suture_fem.solve.newton.NewtonSolver.tangent`: one
@@ -61,6 +64,8 @@ FUTILE_CUTBACKS = 6
 #: next to a tied corner, steps can succeed at ever smaller increments between failures (P2, 0.885 ->
 #: 0.887 N in 5 minutes on the paper scene) and never trip FUTILE_CUTBACKS; this bounds that cost.
 CONTACT_CUTBACKS = 12
+#: Long steps a ramp with contact may try where it would stop (see the module docstring).
+LEAPS = 3
 #: The reason of a solve that met SNES's tests but left the state short of the force balance.
 UNBALANCED = "UNBALANCED"
 #: A step is stretched to the next milestone when less than this fraction of a step would remain.
@@ -124,6 +129,7 @@ class _Stepper:
         self.s, self.prev_step, self.step = 0.0, 0.0, path.initial
         self.retried = False  # this step already retried with the other line search
         self.cuts_here = 0  # cutbacks in a row at the current load s
+        self.leapt_from: float | None = None  # the load the last leap started from
         self.warm: Callable[[float], Any] | None = None  # start states at report forces (ramp's ``warm``)
         self.warm_tried: set[float] = set()  # targets whose warm start was tried
         self.warm_attempt = False  # the solve under way started from a warm start
@@ -331,6 +337,8 @@ class _Stepper:
         futile = self.cuts_here >= FUTILE_CUTBACKS
         effects = getattr(self.physics, "effects", None)
         crawl = effects is not None and effects.contact and result.cutbacks >= contact_cutbacks(effects)
+        if (self.step < path.min_step or futile or crawl) and self._leap(trial, effects):
+            return
         if self.step < path.min_step or futile or crawl:
             cause = stop_cause(self.newton)
             stop = (f"{self.cuts_here} cutbacks in a row at this load (the step {2 ** self.cuts_here}x shorter, still "
@@ -343,6 +351,19 @@ class _Stepper:
                 attempted=path.force(trial),
                 detail=f"{stop} after {result.cutbacks} cutbacks; last failure: {why}{advice(self.physics, cause)}",
             )
+
+
+    def _leap(self, trial: float, effects: Any) -> bool:
+        """Instead of stopping, one long step from the last converged state, where contact allows it."""
+        result, path = self.result, self.path
+        if effects is None or not effects.contact or result.leaps >= LEAPS or self.leapt_from == self.s:
+            return False
+        result.leaps += 1
+        self.leapt_from = self.s
+        self.cuts_here = 0
+        self.step = min([t for t in (*path.targets, path.end) if t > self.s + self.eps]) - self.s  # the next milestone
+        log.warning("the path would stop at %s; one long step (%.3g) from there", path.describe(self.s), self.step)
+        return True
 
 
 def contact_cutbacks(effects: Any) -> int:

@@ -9,7 +9,7 @@ from tests.conftest import run_paper
 from tests.integration.test_slab_run import COARSE_SLAB
 from tests.mpi.conftest import REL
 
-pytestmark = [pytest.mark.mpi, pytest.mark.slow]
+pytestmark = [pytest.mark.mpi, pytest.mark.slow, pytest.mark.long]  # 43 s: benchmarks/long_tests.py
 
 QUANTITIES = ("usum_mm", "skin_inward_mm", "skin_outward_mm", "reaction_force_n", "strain_energy_j")
 

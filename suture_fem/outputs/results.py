@@ -141,8 +141,9 @@ class Results(Mapping):
             latest.update({k: v for k, v in record.items() if k != "force_n"})
         for name in latest:  # the last report's entries, repeated at top level
             rest.pop(name, None)
-        names = [f.name for f in fields(SolverRecord)]
-        solver = SolverRecord(**{n: rest.pop(n) for n in names}) if all(n in rest for n in names) else None
+        names = [f.name for f in fields(SolverRecord) if f.name != "leaps"]  # leaps: written only when taken
+        solver = (SolverRecord(**{n: rest.pop(n) for n in names}, leaps=rest.pop("leaps", 0))
+                  if all(n in rest for n in names) else None)
         diagnosis = rest.pop("diagnosis", None)
         return cls(effects=rest.pop("effects"), scene=rest.pop("scene"), status=rest.pop("status"),
                    force_displacement=rest.pop("force_displacement"), time_history=rest.pop("time_history", None),

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from suture_fem.outputs.results import SolverRecord
+from suture_fem.outputs.results import Results, SolverRecord
 from suture_fem.solve.records import RampResult
 from suture_fem.solve.stepping import LEAPS
 from suture_fem.solve.stepping import _Stepper as Stepper
@@ -46,4 +46,9 @@ def test_results_json_names_the_leaps_only_when_taken():
     result = RampResult()
     assert "leaps" not in SolverRecord.from_history(result).as_dict()
     result.leaps = 2
-    assert SolverRecord.from_history(result).as_dict()["leaps"] == 2
+    record = SolverRecord.from_history(result)
+    assert record.as_dict()["leaps"] == 2
+    minimal = {"effects": {}, "scene": {}, "status": "stopped", "force_displacement": []}
+    assert Results.from_dict({**minimal, **record.as_dict()}).solver == record  # read back, with and without
+    result.leaps = 0
+    assert Results.from_dict({**minimal, **SolverRecord.from_history(result).as_dict()}).solver.leaps == 0

@@ -73,7 +73,7 @@ def test_demos_use_only_the_public_api():
 
 
 #: The demos that take longest as notebooks (20-30 s each): in the long tests (benchmarks/long_tests.py).
-LONG_DEMOS = ("cone_design", "paper_reproduction", "hard_cases", "effects")
+LONG_DEMOS = ("cone_design", "paper_reproduction", "hard_cases", "effects", "accuracy_cost")
 
 
 @pytest.mark.slow

@@ -15,6 +15,7 @@ SCENE = ["geometry.cones=1", "mesh.degree=2", "mesh.refinement=0", "loading.forc
          "loading.report_forces_n=[0.5]", 'output.quantities=["usum"]']
 
 
+@pytest.mark.long  # 12 s; benchmarks/long_tests.py
 def test_the_shifted_jacobians_leave_the_answer_unchanged(tmp_path):
     on = run_inprocess("paper", SCENE, tmp_path / "on")
     off = run_inprocess("paper", SCENE + ["solver.inertia_correction=false"], tmp_path / "off")

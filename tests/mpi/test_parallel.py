@@ -118,6 +118,7 @@ if comm.rank == 0:
 """
 
 
+@pytest.mark.long  # 4 ranks on 2 cores: 13 s; benchmarks/long_tests.py
 def test_four_ranks_with_one_owning_no_cone_cell(tmp_path):
     """Maxima over a region are reduced over every rank, also over ranks that own none of its cells."""
     serial = tmp_path / "serial"

@@ -352,7 +352,6 @@ class _Stepper:
                 detail=f"{stop} after {result.cutbacks} cutbacks; last failure: {why}{advice(self.physics, cause)}",
             )
 
-
     def _leap(self, trial: float, effects: Any) -> bool:
         """Instead of stopping, one long step from the last converged state, where contact allows it."""
         result, path = self.result, self.path

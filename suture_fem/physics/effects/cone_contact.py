@@ -113,7 +113,6 @@ class ConeContact(SlipBound):
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
         self.bound = np.zeros(self.pairs)
         self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
-        self.augmentations = 0  # multiplier updates so far
         self._state = state
         self.start()
         index_all = np.concatenate([self.dofs.ravel(), *self.cone_dofs]).astype(PETSc.IntType)
@@ -176,7 +175,7 @@ class ConeContact(SlipBound):
         """Between Newton solves: the Coulomb bound (:meth:`SlipBound.update`), then the multipliers (collective).
 
         True when both held before the update: the friction to ``tolerance`` (N), and every pressed node
-        (sliding: every node) within the target of the cone's surface, either side. The multipliers move to the
+        within the target of the cone's surface, either side. The multipliers move to the
         pressure now only when the penetration is above the target, so a settled state is the solution
         of the terms it was solved with.
         """
@@ -194,7 +193,6 @@ class ConeContact(SlipBound):
         r = p - self.multiplier  # Uzawa's update moves lambda to p; Aitken's factor speeds its slow modes up
         trial = self.multiplier + self._uzawa.factor(r * self.weight) * r
         self.multiplier = trial if self.bilateral else np.maximum(trial, 0.0)
-        self.augmentations += 1
         return False
 
     def start(self) -> None:

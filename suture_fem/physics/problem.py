@@ -56,7 +56,6 @@ from suture_fem.physics.effects import (
     strain_energy,
 )
 from suture_fem.physics.effects.cone_contact import ConeContact
-from suture_fem.physics.effects.cone_contact import augmented as cone_augmented
 from suture_fem.physics.effects.contact import contact_term, penalty_stiffness
 from suture_fem.physics.effects.friction import ThreadFriction
 from suture_fem.physics.forms import FormContext, Terms, face_area, measures, pull_term, restricted
@@ -308,9 +307,7 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     if effects.frictional_thread:
         physics.friction = ThreadFriction.on(physics, scene.effects, kappa)
     if effects.cone_contact:
-        factor = scene.effects.augmented_penalty if cone_augmented(scene.effects) else None
-        physics.cone_contact = ConeContact.on(physics, scene.effects,
-                                              penalty_stiffness(scene, tagged.sizes.suture, factor))
+        physics.cone_contact = ConeContact.on(physics, scene)
     return physics
 
 

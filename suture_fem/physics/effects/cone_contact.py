@@ -66,6 +66,7 @@ from suture_fem.geometry import regions
 from suture_fem.geometry.outline import project
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
+from suture_fem.physics.effects.contact import penalty_stiffness
 from suture_fem.physics.effects.friction import Aitken, SlipBound, global_dofs, open_pattern
 from suture_fem.support import compat
 
@@ -122,12 +123,15 @@ class ConeContact(SlipBound):
         index.destroy()
 
     @classmethod
-    def on(cls, physics: Any, section: Any, kappa: float) -> ConeContact:
+    def on(cls, physics: Any, scene: Any) -> ConeContact:
         """The cones' contact of a built Physics (its cone surfaces split); its numbers join the record.
 
-        ``section``: the scene's ``[effects]`` (``cone_interface``, ``cone_contact_method``, ``friction_coefficient``,
-        ``friction_slip_mm``, ``contact_penetration_mm``); ``kappa``: the method's penalty stiffness (Pa/m).
+        From the scene's ``[effects]``: ``cone_interface``, ``cone_contact_method`` (the penalty: ``augmented_penalty``
+        or ``contact_penalty``), ``friction_coefficient``, ``friction_slip_mm``, ``contact_penetration_mm``.
         """
+        section = scene.effects
+        factor = section.augmented_penalty if augmented(section) else section.contact_penalty
+        kappa = penalty_stiffness(scene, physics.tagged.sizes.suture, factor)
         target = section.contact_penetration_mm * regions.MM if augmented(section) else None
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
@@ -191,8 +195,7 @@ class ConeContact(SlipBound):
         if worst <= self.target:
             return settled
         r = p - self.multiplier  # Uzawa's update moves lambda to p; Aitken's factor speeds its slow modes up
-        trial = self.multiplier + self._uzawa.factor(r * self.weight) * r
-        self.multiplier = trial if self.bilateral else np.maximum(trial, 0.0)
+        self.multiplier = np.maximum(self.multiplier + self._uzawa.factor(r * self.weight) * r, 0.0)  # unilateral
         return False
 
     def start(self) -> None:

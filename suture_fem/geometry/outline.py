@@ -10,6 +10,7 @@ over the points; a handful of segments per cone.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -41,9 +42,7 @@ def _line(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray,
 
 
 def _arc(points: np.ndarray, p: np.ndarray, c: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, ...]:
-    radius = float(np.linalg.norm(p - c))
-    a0 = math.atan2(*(p - c)[::-1])
-    sweep = (math.atan2(*(q - c)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi
+    radius, a0, sweep = _arc_shape(p, c, q)
     ang = np.arctan2(points[:, 1] - c[1], points[:, 0] - c[0]) - a0
     ang = (ang + math.pi) % (2 * math.pi) - math.pi
     t = np.clip(ang / sweep if sweep else 0.0, 0.0, 1.0)
@@ -53,25 +52,57 @@ def _arc(points: np.ndarray, p: np.ndarray, c: np.ndarray, q: np.ndarray) -> tup
     return near, t * abs(sweep) * radius, tangent, abs(sweep) * radius, (t <= 0.0) | (t >= 1.0)
 
 
+def _arc_shape(p: np.ndarray, c: np.ndarray, q: np.ndarray) -> tuple[float, float, float]:
+    """An arc's radius, start angle and (signed, the shorter way round) sweep."""
+    a0 = math.atan2(*(p - c)[::-1])
+    sweep = (math.atan2(*(q - c)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi
+    return float(np.linalg.norm(p - c)), a0, sweep
+
+
 def _vertices(outline: list) -> np.ndarray:
     """The outline as a polygon (arcs by 16 chords): for the inside test and the orientation."""
+    return _prepared(_key(outline))[1]
+
+
+def _polygon(outline: tuple) -> np.ndarray:
     pts = []
     for kind, seg in outline:
         if kind == "line":
             pts.append(seg[0])
         else:
             p, c, q = (np.array(v, dtype=float) for v in seg)
-            a0 = math.atan2(*(p - c)[::-1])
-            sweep = (math.atan2(*(q - c)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi
-            radius = float(np.linalg.norm(p - c))
+            radius, a0, sweep = _arc_shape(p, c, q)
             pts += [tuple(c + radius * np.array([math.cos(a0 + f * sweep), math.sin(a0 + f * sweep)]))
                     for f in np.linspace(0.0, 1.0, 16, endpoint=False)]
     return np.array(pts, dtype=float)
 
 
+def _key(outline: list) -> tuple:
+    """The outline as a hashable key (its segments' kinds and points as float tuples)."""
+    return tuple((kind, tuple(tuple(float(x) for x in v) for v in seg)) for kind, seg in outline)
+
+
+@functools.lru_cache(maxsize=256)
+def _prepared(outline: tuple) -> tuple[list, np.ndarray, bool, list]:
+    """What :func:`project` needs of an outline that does not depend on the points, computed once per outline.
+
+    (each segment's (kind, points as arrays), the polygon of :func:`_vertices`, whether it runs
+    counter-clockwise, each segment's curvature sign: +1 an arc of a convex part of the cone, -1 a
+    concave one, 0 a line).
+    """
+    segments = [(kind, [np.array(v, dtype=float) for v in seg]) for kind, seg in outline]
+    poly = _polygon(outline)
+    ccw = 0.5 * float(np.sum(poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1])) > 0
+    signs = [(1.0 if _inside(pts[1][None, :], poly)[0] else -1.0) if kind == "arc" else 0.0 for kind, pts in segments]
+    return segments, poly, ccw, signs
+
+
 def inside(points: np.ndarray, outline: list) -> np.ndarray:
     """Whether each point lies inside the closed outline (ray casting along +r)."""
-    poly = _vertices(outline)
+    return _inside(points, _vertices(outline))
+
+
+def _inside(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
     a, b = poly, np.roll(poly, -1, axis=0)
     x, y = points[:, 0][:, None], points[:, 1][:, None]
     crosses = (a[None, :, 1] > y) != (b[None, :, 1] > y)
@@ -92,12 +123,12 @@ def project(points: np.ndarray, outline: list) -> Projection:
     """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     n = len(points)
+    segments, poly, ccw, signs = _prepared(_key(outline))
     best = np.full(n, np.inf)
     out = {"s": np.zeros(n), "near": np.zeros((n, 2)), "tangent": np.zeros((n, 2)),
            "end": np.zeros(n, bool), "curvature": np.zeros(n)}
     start = 0.0
-    for kind, seg in outline:
-        pts = [np.array(v, dtype=float) for v in seg]
+    for (kind, pts), convex in zip(segments, signs):
         near, s, tangent, length, end = _line(points, *pts) if kind == "line" else _arc(points, *pts)
         dist = np.linalg.norm(points - near, axis=1)
         closer = dist < best - 1e-9  # a tie (a corner shared by two segments) keeps the earlier segment
@@ -105,16 +136,13 @@ def project(points: np.ndarray, outline: list) -> Projection:
         out["s"][closer], out["near"][closer] = start + s[closer], near[closer]
         out["tangent"][closer], out["end"][closer] = tangent[closer], end[closer]
         if kind == "arc":  # the distance to a circle bends by 1 / (distance to its centre): + convex, - concave
-            convex = 1.0 if inside(pts[1][None, :], outline)[0] else -1.0
             out["curvature"][closer] = convex / np.maximum(np.linalg.norm(points - pts[1], axis=1), 1e-300)[closer]
         else:
             out["curvature"][closer] = 0.0
         start += length
-    poly = _vertices(outline)
-    ccw = 0.5 * float(np.sum(poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1])) > 0
     turned = np.stack([out["tangent"][:, 1], -out["tangent"][:, 0]], axis=1)  # the tangent turned clockwise
     outward = turned if ccw else -turned
-    sign = np.where(inside(points, outline), -1.0, 1.0)
+    sign = np.where(_inside(points, poly), -1.0, 1.0)
     offset = points - out["near"]
     normal = np.where((best > ON_CORNER_MM)[:, None], sign[:, None] * offset / np.maximum(best, 1e-300)[:, None],
                       outward)

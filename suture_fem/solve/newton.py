@@ -101,6 +101,9 @@ class NewtonSolver(Linearised):
         self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
         self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
         self.nodal, self.laws = nodal_terms(problem), slip_laws(problem)  # hand-assembled: friction, cone contact
+        if self.nodal:  # the forms' pattern in place before the nodal terms widen it (pattern.widen keeps it)
+            dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
+            self.A_full.assemble()
         for terms in self.nodal:
             terms.extend_pattern(self.A_full)
         self._assemble_full_jacobian()

@@ -67,7 +67,8 @@ from suture_fem.geometry.outline import project
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
 from suture_fem.physics.effects.contact import penalty_stiffness
-from suture_fem.physics.effects.friction import Aitken, SlipBound, global_dofs, open_pattern
+from suture_fem.physics.effects.friction import Aitken, SlipBound, global_dofs
+from suture_fem.physics.effects.pattern import ConeLayout, widen
 from suture_fem.support import compat
 
 log = logging.getLogger("suture_fem")
@@ -108,13 +109,15 @@ class ConeContact(SlipBound):
         self.corner_mm = float(pairs["corner_mm"])
         self.pairs = len(self.weight)
         self.s0, self.phi0 = np.zeros(self.pairs), np.zeros(self.pairs)
-        for c, outline in enumerate(self.outlines):
-            sel = self.cone == c
+        self._of_cone = [np.flatnonzero(self.cone == c) for c in range(len(self.outlines))]
+        for sel, outline in zip(self._of_cone, self.outlines):
             start = project(self.X[sel], outline)
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
         self.bound = np.zeros(self.pairs)
         self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
         self._state = state
+        self._found: tuple[np.ndarray, dict[str, np.ndarray]] | None = None  # the last search's (input, places)
+        self._layout = ConeLayout(self.dofs, self.cone, self.cone_dofs)
         self.start()
         index_all = np.concatenate([self.dofs.ravel(), *self.cone_dofs]).astype(PETSc.IntType)
         self._local = PETSc.Vec().createSeq(len(index_all), comm=PETSc.COMM_SELF)
@@ -146,6 +149,8 @@ class ConeContact(SlipBound):
         """
         self._scatter.scatter(u_vec, self._local, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         values = self._local.getArray(readonly=True)
+        if self._found is not None and np.array_equal(values, self._found[0]):  # the same state: the same places
+            return self._found[1]
         u = values[: 2 * self.pairs].reshape(self.pairs, 2)
         at, t_c = 2 * self.pairs, []
         for dofs in self.cone_dofs:
@@ -154,13 +159,15 @@ class ConeContact(SlipBound):
         y = self.X + (u - np.stack([np.zeros(self.pairs), np.asarray(t_c)[self.cone]], axis=1)) / regions.MM
         out = {"phi": np.zeros(self.pairs), "g": np.zeros(self.pairs), "n": np.zeros((self.pairs, 2)),
                "T": np.zeros((self.pairs, 2)), "curvature": np.zeros(self.pairs), "t_c": np.asarray(t_c)}
-        for c, outline in enumerate(self.outlines):
-            sel = self.cone == c
+        for sel, outline in zip(self._of_cone, self.outlines):
             proj = project(y[sel], outline)
             out["phi"][sel] = (proj.distance - self.phi0[sel]) * regions.MM
             out["g"][sel] = (proj.s - self.s0[sel]) * regions.MM
             out["n"][sel], out["T"][sel] = proj.normal, proj.tangent
             out["curvature"][sel] = proj.curvature / regions.MM  # 1/m
+        for array in out.values():
+            array.flags.writeable = False  # kept for the next call at the same state
+        self._found = (values.copy(), out)
         return out
 
     def _pressure(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -269,26 +276,12 @@ class ConeContact(SlipBound):
 
     def _add_blocks(self, A: Any, hess: np.ndarray) -> None:
         """K_aa = H, K_ab = -H[:, z] alpha, K_bb = sum_a H_zz alpha alpha^T for every pair's H (alpha = 1 / n_b)."""
-        for c, dofs in enumerate(self.cone_dofs):
-            sel = np.flatnonzero(self.cone == c)
-            alpha = 1.0 / max(len(dofs), 1)
-            cols = [int(i) for i in dofs]
-            for k in sel:
-                rows = [int(i) for i in self.dofs[k]]
-                A.setValues(rows, rows, hess[k], addv=PETSc.InsertMode.ADD_VALUES)
-                if cols:
-                    coupling = np.repeat(-hess[k][:, 1:2] * alpha, len(cols), axis=1)
-                    A.setValues(rows, cols, coupling, addv=PETSc.InsertMode.ADD_VALUES)
-                    A.setValues(cols, rows, coupling.T.copy(), addv=PETSc.InsertMode.ADD_VALUES)
-            if cols and len(sel):
-                block = np.full((len(cols), len(cols)), float(np.sum(hess[sel, 1, 1])) * alpha * alpha)
-                A.setValues(cols, cols, block, addv=PETSc.InsertMode.ADD_VALUES)
+        self._layout.add(A, hess)
         A.assemble()
 
     def extend_pattern(self, A: Any) -> None:
-        """Make room in A, once, for every coupling the terms add (new nonzeros, stored as zeros)."""
-        open_pattern(A)
-        self._add_blocks(A, np.zeros((self.pairs, 2, 2)))
+        """Make room in A, once, for every coupling the terms add (:func:`~.pattern.widen`)."""
+        widen(A, *self._layout.entries())
 
     def profile(self, u_vec: Any) -> dict[str, np.ndarray]:
         """Per pair (this rank's; collective): ``gap_mm`` and ``slip_mm``.

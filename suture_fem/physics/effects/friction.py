@@ -53,6 +53,7 @@ from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs
+from suture_fem.physics.effects.pattern import widen
 from suture_fem.physics.forms import measures
 from suture_fem.support import compat
 
@@ -245,13 +246,9 @@ class ThreadFriction(SlipBound):
         A.assemble()
 
     def extend_pattern(self, A: Any) -> None:
-        """Make room in A, once, for every coupling the terms add (new nonzeros, stored as zeros)."""
-        open_pattern(A)
+        """Make room in A, once, for every coupling the terms add (:func:`~.pattern.widen`)."""
         n = self.dofs.shape[1]
-        for row in self.dofs:
-            rows = [int(i) for i in row]
-            A.setValues(rows, rows, np.zeros((n, n)), addv=PETSc.InsertMode.ADD_VALUES)
-        A.assemble()
+        widen(A, np.repeat(self.dofs, n, axis=1).ravel(), np.tile(self.dofs, (1, n)).ravel())
 
     def status(self, u_vec: Any) -> dict[str, int]:
         """How many track nodes stick (|g| < 2 s: within the regularisation), slip, and are open now (all ranks)."""
@@ -317,13 +314,6 @@ def nodal_terms(problem: Any) -> list[Any]:
 def slip_laws(problem: Any) -> list[SlipBound]:
     """The nodal terms updated between Newton solves: a Coulomb slip bound (mu > 0), an augmented Lagrangian."""
     return [t for t in nodal_terms(problem) if t.mu > 0.0 or getattr(t, "augmented", False)]
-
-
-def open_pattern(A: Any) -> None:
-    """Let hand-assembled terms add entries to A: new nonzeros, and rows owned by another rank."""
-    A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
-    A.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, False)
-    A.setOption(PETSc.Mat.Option.NO_OFF_PROC_ENTRIES, False)
 
 
 def global_dofs(physics: Any, nodes: np.ndarray, component: int) -> np.ndarray:

@@ -267,7 +267,6 @@ class NewtonSolver(Linearised):
         if shifted:  # the factorisation is not the Jacobian's: a tangent or sensitivity solve assembles A again
             self.jacobian_current = False
 
-
     def solve(self) -> tuple[bool, int, str]:
         """One Newton solve from the current state; returns (converged, iterations, reason).
 

@@ -8,9 +8,11 @@ of the thread and of each cone at the peak, Newton iterations, load steps, cutba
 peak memory.
 
     .venv/bin/python benchmarks/interfaces.py [--cones 1,4] [--vary thread|cone] [--models tied,sliding]
-        [--set KEY=VALUE ...] [--out benchmarks/out/interfaces]
+        [--set KEY=VALUE ...] [--out benchmarks/out/interfaces] [--before COMMIT]
 
-Counts do not depend on the machine's load; CPU seconds do (compare them side by side, as here). Under
+Counts do not depend on the machine's load; CPU seconds do (compare them side by side, as here).
+``--before COMMIT`` also runs every case with that commit's code (a git worktree in /var/tmp, as
+benchmarks/speed.py makes), each case before then now, back to back, so both see the same load. Under
 displacement control (``--set loading.control='"displacement"' --set loading.displacement_mm=5``, with
 ``--set mesh.degree=1`` for the Coulomb thread) the force column is the end's reaction.
 """
@@ -23,18 +25,18 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from speed import ROOT, run  # noqa: E402
+from speed import ROOT, run, worktree  # noqa: E402
 
 MODELS = ("tied", "sliding", "frictionless", "coulomb")
 
 
-def case(cones: int, model: str, extra: list[str], out: Path, vary: str = "thread") -> dict:
-    """One ramp: its results and costs."""
+def case(cones: int, model: str, extra: list[str], out: Path, vary: str = "thread", code: Path = ROOT) -> dict:
+    """One ramp (with the code at ``code``): its results and costs."""
     args = ["run", "paper", "--set", f"geometry.cones={cones}", "--set", f'effects.{vary}_interface="{model}"',
             "--set", 'output.quantities=["usum","interface"]', "--no-pictures"]
     for kv in extra:
         args += ["--set", kv]
-    row = run(ROOT, args, out)
+    row = run(code, args, out)
     res = json.loads((out / "results.json").read_text()) if (out / "results.json").is_file() else {}
     reports = res.get("at_forces", [])
     last = reports[-1].get("interface", {}) if reports else {}
@@ -42,7 +44,8 @@ def case(cones: int, model: str, extra: list[str], out: Path, vary: str = "threa
         contact = last.get("cone_contact", {})
         slips = [c["slip_max_mm"] for c in contact.get("cones", {}).values()]
         last = {"slip_max_mm": max(slips) if slips else None, "open_nodes": contact.get("open_nodes")}
-    return {"cones": cones, "model": model, "exit": row["exit"], "cpu_s": row["cpu_s"], "peak_mb": row["peak_mb"],
+    return {"cones": cones, "model": model, "code": "now" if code == ROOT else "before", "exit": row["exit"],
+            "cpu_s": row["cpu_s"], "peak_mb": row["peak_mb"],
             "newton_iterations": res.get("newton_iterations"), "load_steps": res.get("load_steps"),
             "cutbacks": res.get("cutbacks"),
             "usum_mm": {r["force_n"]: r.get("usum_mm") for r in reports},
@@ -59,16 +62,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--models", default=",".join(MODELS))
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "interfaces"))
+    ap.add_argument("--before", default=None, metavar="COMMIT", help="also run each case with this commit's code")
     args = ap.parse_args(argv)
     out = Path(args.out)
+    codes = ([worktree(args.before)] if args.before else []) + [ROOT]
     rows = []
     for cones in [int(c) for c in args.cones.split(",")]:
         for model in args.models.split(","):
-            rows.append(case(cones, model, args.set, out / f"cones_{cones}_{model}", args.vary))
-    print(f"| cones | {args.vary} | exit | USUM at the reports (mm) | force at the last report (N) "
+            for code in codes:
+                where = out / ("before" if code != ROOT else "") / f"cones_{cones}_{model}"
+                rows.append(case(cones, model, args.set, where, args.vary, code))
+    print(f"| code | cones | {args.vary} | exit | USUM at the reports (mm) | force at the last report (N) "
           "| thread share there (N) | cone shares (N) | slip max (mm) | open nodes | Newton its | steps | cutbacks "
           "| CPU s | peak MB |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- " * 15 + "|")
     for r in rows:
         usum = " / ".join(f"{v:.3f}" for v in r["usum_mm"].values() if v is not None)
         shares = r["load_share_n"] or {}
@@ -76,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         slip = f"{r['slip_max_mm']:.3f}" if r["slip_max_mm"] is not None else "-"
         last = max(r["usum_mm"], default=float("nan"))
         thread = shares.get("thread", float("nan"))
-        print(f"| {r['cones']} | {r['model']} | {r['exit']} | {usum} | {last:.4g} | {thread:.3g} | "
+        print(f"| {r['code']} | {r['cones']} | {r['model']} | {r['exit']} | {usum} | {last:.4g} | {thread:.3g} | "
               f"{cones_txt} | {slip} | {r['open_nodes'] if r['open_nodes'] is not None else '-'} | "
               f"{r['newton_iterations']} | {r['load_steps']} | {r['cutbacks']} | "
               f"{r['cpu_s']:.1f} | {r['peak_mb']:.0f} |")

@@ -36,6 +36,9 @@ log = logging.getLogger("suture_fem")
 
 #: The first shift (times |diag A|) and the factor between tries; at most MAX_TRIES tries.
 FIRST_SHIFT, SHIFT_GROWTH, MAX_TRIES = 1e-4, 10.0, 8
+#: The shifts tried, FIRST_SHIFT x SHIFT_GROWTH^k, and the KSP attribute that keeps the k its last correction took.
+SHIFTS = [FIRST_SHIFT * SHIFT_GROWTH**k for k in range(MAX_TRIES)]
+LAST_SHIFT = "suture_fem_inertia_shift"
 
 
 def negative_pivots(ksp: Any) -> int | None:
@@ -71,6 +74,12 @@ def correct(ksp: Any, A: Any) -> tuple[bool, int]:
     factorisation fails (it made A singular) counts as a try; if none of :data:`MAX_TRIES` leaves a
     factorisation without negative pivots, A is restored and factorised as it was. A failure of the
     first factorisation, of A itself, is left to SNES, as without the correction.
+
+    The shift taken is the smallest of FIRST_SHIFT x SHIFT_GROWTH^k without negative pivots. A + tau D
+    grows with tau (D >= 0), so its negative pivots can only fall as tau grows: the search starts one
+    below the shift the KSP's last correction took (kept on the KSP) and goes up, or, where that one
+    already has none, down until one has some; the shift found is the same, in fewer factorisations
+    (Jacobians in a row of a Newton solve need about the same shift).
     """
     ksp.setOperators(A, A)
     ksp.getPC().setUp()
@@ -80,24 +89,39 @@ def correct(ksp: Any, A: Any) -> tuple[bool, int]:
     original = A.getDiagonal()
     scale = original.copy()
     scale.abs()
-    shift, extra = FIRST_SHIFT, 0
-    while (negative is None or negative > 0) and extra < MAX_TRIES:  # None: a shift made it singular, go on
-        shifted = original.copy()
-        shifted.axpy(shift, scale)
-        A.setDiagonal(shifted)
-        shifted.destroy()
-        negative = _factorise(ksp, A)
-        extra += 1
-        shift *= SHIFT_GROWTH
+    k = max(0, (ksp.getAttr(LAST_SHIFT) or 0) - 1)
+    negative, extra = _shifted(ksp, A, original, scale, SHIFTS[k]), 1
+    while (negative is None or negative > 0) and k < MAX_TRIES - 1:  # None: a shift made it singular, go on
+        k += 1
+        negative, extra = _shifted(ksp, A, original, scale, SHIFTS[k]), extra + 1
     failed = negative is None or negative > 0
+    if not failed and extra == 1:  # the first one tried already had none: the smaller ones, while they have none
+        while k > 0:
+            lower, extra = _shifted(ksp, A, original, scale, SHIFTS[k - 1]), extra + 1
+            if lower is None or lower > 0:
+                _shifted(ksp, A, original, scale, SHIFTS[k])
+                extra += 1
+                break
+            k -= 1
+    shift = SHIFTS[k]
     if failed:  # no shift helped: the Jacobian as it was
         A.setDiagonal(original)
         _factorise(ksp, A)
         extra += 1
         log.info("inertia correction: no shift up to %.0e |diag A| removed every negative pivot; the Newton step "
-                 "uses the indefinite Jacobian", shift / SHIFT_GROWTH)
+                 "uses the indefinite Jacobian", shift)
     else:
-        log.debug("inertia correction: %d factorisations, shift %.0e |diag A|", extra, shift / SHIFT_GROWTH)
+        ksp.setAttr(LAST_SHIFT, k)
+        log.debug("inertia correction: %d factorisations, shift %.0e |diag A|", extra, shift)
     original.destroy()
     scale.destroy()
     return not failed, extra
+
+
+def _shifted(ksp: Any, A: Any, original: Any, scale: Any, shift: float) -> int | None:
+    """Factorise A with the diagonal original + shift x scale: its negative pivots (None: failed)."""
+    shifted = original.copy()
+    shifted.axpy(shift, scale)
+    A.setDiagonal(shifted)
+    shifted.destroy()
+    return _factorise(ksp, A)

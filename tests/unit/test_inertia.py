@@ -81,3 +81,21 @@ def test_a_failed_first_factorisation_is_left_to_the_solver():
     b.set(1.0)
     ksp.solve(b, x)
     assert ksp.getConvergedReason() < 0
+
+
+def test_the_next_correction_starts_near_the_last_shift_and_finds_the_same_smallest_one():
+    # the first needs tau = 10 (six tries); on the same KSP a Jacobian that needs it again takes two (1, then 10),
+    # and one that needs only tau = 1 (1 + tau > 1.5) takes three (1 has none, 0.1 has one, 1 again)
+    dense = np.array([[1.0, 3.0, 0.0], [3.0, 1.0, 0.0], [0.0, 0.0, 5.0]])
+    ksp, A = _ksp_and_matrix(dense)
+    assert inertia.correct(ksp, A) == (True, 6)
+    A.setDiagonal(PETSc.Vec().createWithArray(np.diag(dense).copy(), comm=PETSc.COMM_SELF))
+    assert inertia.correct(ksp, A) == (True, 2)
+    assert _diagonal(A) == pytest.approx(np.diag(dense) * 11.0)
+    milder = np.array([[1.0, 1.5, 0.0], [1.5, 1.0, 0.0], [0.0, 0.0, 5.0]])
+    _, B = _ksp_and_matrix(milder)
+    assert inertia.correct(ksp, B) == (True, 3)
+    assert inertia.negative_pivots(ksp) == 0
+    assert _diagonal(B) == pytest.approx(np.diag(milder) * 2.0)  # the smallest: a fresh search finds tau = 1 too
+    fresh, C = _ksp_and_matrix(milder)
+    assert inertia.correct(fresh, C) == (True, 5)  # 1e-4 ... 1 from the start

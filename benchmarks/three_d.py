@@ -14,8 +14,9 @@ CPU seconds, summed over every MPI rank, and its peak resident memory, the large
   Newton iteration, the crossover of ``solver.linear_method = "auto"``.
 * ``critical_distance``: the tissue's converged measures (SEQV and EPTOEQV averaged over a ball of the
   default critical distance, 0.1 mm, where largest; near the cones too) at 1 N, 1 and 4 cones, on the
-  ladder's 3-D rungs, against the 2-D model (P1 on the same sizes, P2 one refinement finer); the
-  outputs' wall seconds (``timings_s.outputs``). Each run is written to the JSON as it ends; not in the
+  ladder's 3-D rungs and, for 1 cone, with the rims alone refined (rim size 0.05 and 0.025 mm, the rest
+  at x2), against the 2-D model (P1 on the same sizes, P2 one refinement finer); the outputs' wall
+  seconds (``timings_s.outputs``). Each run is written to the JSON as it ends; not in the
   default parts.
 
     .venv/bin/python benchmarks/three_d.py [--parts ladder ranks solvers critical_distance] \
@@ -165,6 +166,9 @@ def critical_distance(tmp: Path, out: Path | None = None) -> list[dict]:
              for cones, f in ((1, 4.0), (1, 2.83), (1, 2.0), (4, 4.0), (4, 2.83))]
     runs += [(cones, f"3-D P1 x{f:g}", [*BASE_CD_3D, f"geometry.cones={cones}", *sized(f)])
              for cones, f in ((1, 4.0), (4, 4.0), (1, 2.83), (4, 2.83), (1, 2.0))]
+    # the ladder's rims are meshed no finer than the ball's radius: the rims alone refined, the rest at x2
+    runs += [(1, f"3-D P1 x2, rim {rim:g}", [*BASE_CD_3D, "geometry.cones=1", *sized(2.0), f"mesh.size_rim_mm={rim}"])
+             for rim in (0.05, 0.025)]
     rows = []
     for cones, model, overrides in runs:
         res = run(f"cd_{cones}_{model}", [*overrides, "loading.force_n=1.0", "loading.report_forces_n=[]"], tmp)

@@ -42,7 +42,7 @@ LEVELS = (1 / 4, 1 / 8, 1 / 16, 1 / 32)
 MAX_MOVES = 20
 #: The coarse view's grid spacing (fraction of R), doubled until the region's box holds at most COARSE_NODES.
 COARSE_SPACING, COARSE_NODES = 1 / 2, 100_000
-#: Centres whose located points are kept (about 2 kB each).
+#: Centres whose located points are kept per region (under 2 kB each: 289 points, a 2- and a 4-byte index).
 KEPT = 20_000
 
 _STEPS = np.array(list(itertools.product((-1, 0, 1), repeat=3)), dtype=np.int64)  # the 27 offsets; 13: none
@@ -104,7 +104,7 @@ class BallRegion:
             bounds = np.searchsorted(idx, m * np.arange(len(missing) + 1))
             for j, i in enumerate(missing):
                 a, b = bounds[j], bounds[j + 1]
-                found[keys[i]] = ((idx[a:b] - j * m).astype(np.int16), self.row[cells[a:b]])
+                found[keys[i]] = ((idx[a:b] - j * m).astype(np.int16), self.row[cells[a:b]].astype(np.int32))
             if len(self.kept) < KEPT:
                 self.kept.update(found)
         parts = [found[key] if key in found else self.kept[key] for key in keys]
@@ -118,9 +118,8 @@ class BallRegion:
 
         The field is sampled at the nodes of a grid fixed in space over the region's box (spacing R/2,
         doubled until it has at most :data:`COARSE_NODES` nodes; a node in several cells takes their largest
-        value), and the mean of the samples within two
-        spacings of each node (33 of them) stands for the ball average there, with no regard to the mesh.
-        The ``count`` largest local maxima of it, R apart.
+        value), and the mean of the samples within two spacings of each node (33 of them) stands for the
+        ball average there, with no regard to the mesh. The ``count`` largest local maxima of it, R apart.
         """
         if self._coarse is None:
             self._coarse = self._coarse_grid()

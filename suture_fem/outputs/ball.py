@@ -62,11 +62,12 @@ def point_values(comm: Any, idx: np.ndarray, values: np.ndarray, size: int) -> t
     """
     from mpi4py import MPI
 
-    sums, counts = np.zeros(size), np.zeros(size)
+    both = np.zeros(2 * size)  # the sums, then the counts: one reduction
+    sums, counts = both[:size], both[size:]
     np.add.at(sums, idx, values)
     np.add.at(counts, idx, 1.0)
-    comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
-    comm.Allreduce(MPI.IN_PLACE, counts, op=MPI.SUM)
+    if comm.size > 1:
+        comm.Allreduce(MPI.IN_PLACE, both, op=MPI.SUM)
     return np.where(counts > 0, sums / np.maximum(counts, 1.0), 0.0), counts > 0
 
 

@@ -229,41 +229,54 @@ def max_ball_average(ball: BallRegion, values: np.ndarray, starts: tuple[np.ndar
     for s in np.concatenate(chosen) if chosen else ():
         if all(np.linalg.norm(s - c) >= ball.radius for c in climbs):
             climbs.append(s)
+    values_at, centres = _climbs(ball, values, climbs, allowed, known)
     best_value, best = -np.inf, None
-    for s in climbs:
-        at, value = np.round(s / ball.unit).astype(np.int64), -np.inf
-        for level in LEVELS:
-            value, at = _climb(ball, values, at, value, int(round(level / LEVELS[-1])), allowed, known)
+    for value, at in zip(values_at, centres):  # the first of equal maxima, in the climbs' order
         if value > best_value:
             best_value, best = value, [float(c) for c in at * ball.unit]
     return DiscMax(best_value, best)
 
 
-def _climb(ball: BallRegion, values: np.ndarray, at: np.ndarray, value: float, step: int, allowed: Allowed | None,
-           known: dict) -> tuple[float, np.ndarray]:
-    """The best centre of a 3 x 3 x 3 grid of spacing ``step`` units, moved while it finds a better one.
+def _climbs(ball: BallRegion, values: np.ndarray, starts: list[np.ndarray], allowed: Allowed | None,
+            known: dict) -> tuple[list[float], list[np.ndarray]]:
+    """Each start climbed through the :data:`LEVELS`: (its best average, its centre in units of ``ball.unit``).
 
-    Centres are integer multiples of the finest spacing (``ball.unit``), so a grid point's position and its
-    key in ``known`` are the same whichever grid reached it.
+    At each level a climb's 3 x 3 x 3 grid of spacing ``step`` units moves to its best centre while that is
+    better than the climb's best so far, and stops when it is not or when it is the grid's own centre.
+    Centres are integer multiples of the finest spacing, so a grid point's position and its key in ``known``
+    are the same whichever grid reached it. The climbs move in step: one collective batch of new averages
+    per move of all of them (each climb's moves are its own, as if climbed alone).
     """
-    for _ in range(MAX_MOVES):
-        grid = np.round(at / step).astype(np.int64) * step + _STEPS * step
-        if ball.mirror:
-            grid[:, 2] = -np.abs(grid[:, 2])
-        keys = list(map(tuple, grid.tolist()))
-        centres = grid * ball.unit
-        ok = allowed(centres) if allowed is not None else np.ones(len(grid), dtype=bool)
-        new = list({k: i for i, k in enumerate(keys) if ok[i] and k not in known}.values())
-        if new:
-            known.update(zip((keys[i] for i in new), ball.averages(values, centres[new]).tolist()))
-        avgs = np.array([known[k] if ok[i] else -np.inf for i, k in enumerate(keys)])
-        j = int(np.argmax(avgs))
-        if not avgs[j] > value:
-            break
-        value, at = float(avgs[j]), grid[j]
-        if j == 13:  # the grid's own centre: no neighbour is better
-            break
-    return value, at
+    at = [np.round(s / ball.unit).astype(np.int64) for s in starts]
+    best = [-np.inf] * len(starts)
+    for level in LEVELS:
+        step = int(round(level / LEVELS[-1]))
+        active = list(range(len(starts)))
+        for _ in range(MAX_MOVES):
+            if not active:
+                break
+            grids = {}
+            for i in active:
+                grid = np.round(at[i] / step).astype(np.int64) * step + _STEPS * step
+                if ball.mirror:
+                    grid[:, 2] = -np.abs(grid[:, 2])
+                keys = list(map(tuple, grid.tolist()))
+                ok = allowed(grid * ball.unit) if allowed is not None else np.ones(len(grid), dtype=bool)
+                grids[i] = (grid, keys, ok)
+            new = {k: g[i] for g, keys, ok in grids.values() for i, k in enumerate(keys) if ok[i] and k not in known}
+            if new:
+                known.update(zip(new, ball.averages(values, np.array(list(new.values())) * ball.unit).tolist()))
+            still = []
+            for i in active:
+                grid, keys, ok = grids[i]
+                avgs = np.array([known[k] if ok[n] else -np.inf for n, k in enumerate(keys)])
+                j = int(np.argmax(avgs))
+                if avgs[j] > best[i]:
+                    best[i], at[i] = float(avgs[j]), grid[j]
+                    if j != 13:  # not the grid's own centre: a neighbour was better, move on
+                        still.append(i)
+            active = still
+    return best, at
 
 
 def ball_maxima(ball: BallRegion, values: np.ndarray, near: tuple[Allowed, np.ndarray] | None = None

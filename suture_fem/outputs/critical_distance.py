@@ -12,6 +12,9 @@ question of the paper is about the cones, so each average is also given with the
 cone (``seqv_cd_cone_pa``, ``eptoeqv_cd_cone``: within :data:`CONE_ZONE_RADII` critical distances of a
 cone's surface), for the whole tissue only (the cones stand in the hypodermis: a layer's own value would
 repeat the tissue's or be absent) and only with cones.
+
+In 3-D the disc is a ball (:mod:`suture_fem.outputs.ball_search`: the same keys, the centre (x, y, z), near a
+cone measured in (r, y) = (sqrt(x^2 + z^2), y)).
 """
 
 from __future__ import annotations

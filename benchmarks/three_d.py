@@ -12,8 +12,15 @@ CPU seconds, summed over every MPI rank, and its peak resident memory, the large
 * ``ranks``: one rung (sizes times 2, 1 cone, 1 N) on 1 and 2 MPI ranks: CPU, wall, peak memory per rank.
 * ``solvers``: MUMPS against GAMG (and hypre) on two rungs at 0.25 N: the linear solve's seconds per
   Newton iteration, the crossover of ``solver.linear_method = "auto"``.
+* ``critical_distance``: the tissue's converged measures (SEQV and EPTOEQV averaged over a ball of the
+  default critical distance, 0.1 mm, where largest; near the cones too) at 1 N, 1 and 4 cones, on the
+  ladder's 3-D rungs and, for 1 cone, with the rims alone refined (rim size 0.05 and 0.025 mm, the rest
+  at x2), against the 2-D model (P1 on the same sizes, P2 one refinement finer); the outputs' wall
+  seconds (``timings_s.outputs``). Each run is written to the JSON as it ends; not in the
+  default parts.
 
-    .venv/bin/python benchmarks/three_d.py [--parts ladder ranks solvers] [--out benchmarks/out/three_d]
+    .venv/bin/python benchmarks/three_d.py [--parts ladder ranks solvers critical_distance] \
+        [--out benchmarks/out/three_d]
 """
 
 from __future__ import annotations
@@ -37,6 +44,9 @@ from suture_fem.support.io import write_json  # noqa: E402
 BASE_3D = ["geometry.dimension=3", "mesh.degree=1", "output.critical_distance_mm=0",
            'output.quantities=["usum","seqv","eptoeqv"]']
 BASE_2D = ["output.critical_distance_mm=0", 'output.quantities=["usum","seqv","eptoeqv"]']
+#: The same with the critical-distance average at its default radius (0.1 mm): a disc in 2-D, a ball in 3-D.
+BASE_CD_3D = ["geometry.dimension=3", "mesh.degree=1", 'output.quantities=["usum","seqv","eptoeqv"]']
+BASE_CD_2D = ['output.quantities=["usum","seqv","eptoeqv"]']
 #: The [mesh] sizes at refinement 0 (defaults.toml): suture, rim, far.
 SIZES = (0.15, 0.05, 1.2)
 QUANTITIES = ("usum_mm", "thread_end_displacement_mm", "strain_energy_j")
@@ -145,6 +155,35 @@ def solvers(tmp: Path) -> list[dict]:
     return rows
 
 
+#: The critical-distance measures compared, in the whole tissue.
+MEASURES = ("seqv_cd_pa", "eptoeqv_cd", "seqv_cd_cone_pa", "eptoeqv_cd_cone")
+
+
+def critical_distance(tmp: Path, out: Path | None = None) -> list[dict]:
+    """The converged stress measures at 1 N on the 3-D rungs (coarse first) and the 2-D references."""
+    runs = [(cones, "2-D P2 ref. 1", [*BASE_CD_2D, f"geometry.cones={cones}", "mesh.refinement=1"]) for cones in (1, 4)]
+    runs += [(cones, f"2-D P1 x{f:g}", [*BASE_CD_2D, f"geometry.cones={cones}", "mesh.degree=1", *sized(f)])
+             for cones, f in ((1, 4.0), (1, 2.83), (1, 2.0), (4, 4.0), (4, 2.83))]
+    runs += [(cones, f"3-D P1 x{f:g}", [*BASE_CD_3D, f"geometry.cones={cones}", *sized(f)])
+             for cones, f in ((1, 4.0), (4, 4.0), (1, 2.83), (4, 2.83), (1, 2.0))]
+    # the ladder's rims are meshed no finer than the ball's radius: the rims alone refined, the rest at x2
+    runs += [(1, f"3-D P1 x2, rim {rim:g}", [*BASE_CD_3D, "geometry.cones=1", *sized(2.0), f"mesh.size_rim_mm={rim}"])
+             for rim in (0.05, 0.025)]
+    rows = []
+    for cones, model, overrides in runs:
+        res = run(f"cd_{cones}_{model}", [*overrides, "loading.force_n=1.0", "loading.report_forces_n=[]"], tmp)
+        tissue = at(res, 1.0).get("regions", {}).get("tissue", {})
+        rows.append({"cones": cones, "model": model, "dofs": res.get("dofs"), "cells": res.get("cells"),
+                     "cpu_s": res["process_cpu_s"], "peak_memory_mb": res["peak_memory_mb"],
+                     "outputs_wall_s": res.get("timings_s", {}).get("outputs"), "status": res.get("status"),
+                     "usum_mm": at(res, 1.0).get("usum_mm"), **{f"tissue_{q}": tissue.get(q) for q in MEASURES},
+                     **{f"{q}_at_rz_mm": rz(tissue.get(f"{q}_at_mm")) for q in MEASURES},
+                     **{f"{q}_at_mm": tissue.get(f"{q}_at_mm") for q in MEASURES}})
+        if out is not None:  # each run as it ends: the finer rungs take long
+            write_json(out / "critical_distance.json", {"part": "critical_distance", "rows": rows})
+    return rows
+
+
 def table(rows: list[dict], keys: list[str]) -> str:
     """A markdown table of the rows' keys (numbers to 4 significant digits)."""
     def fmt(v: object) -> str:
@@ -162,13 +201,16 @@ def main() -> int:
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    parts = {"ladder": ladder, "ranks": ranks, "solvers": solvers}
+    parts = {"ladder": ladder, "ranks": ranks, "solvers": solvers,
+             "critical_distance": lambda tmp: critical_distance(tmp, out)}
     columns = {
         "ladder": ["cones", "model", "force_n", "dofs", "cpu_s", "peak_memory_mb", "status", *QUANTITIES,
                    *[f"tissue_{q}" for q in TISSUE], "seqv_outside_rim_at_rz_mm", "stop_cause", "load_reached_n"],
         "ranks": ["ranks", "dofs", "cpu_s", "wall_s", "peak_memory_mb_per_rank", "newton_iterations", "usum_mm"],
         "solvers": ["factor", "method", "dofs", "cpu_s", "peak_memory_mb", "newton_iterations", "linear_solve_s",
                     "per_iteration_s", "recorded_solver", "fallbacks", "usum_mm"],
+        "critical_distance": ["cones", "model", "dofs", "cpu_s", "peak_memory_mb", "outputs_wall_s", "status",
+                              "usum_mm", *[f"tissue_{q}" for q in MEASURES], *[f"{q}_at_rz_mm" for q in MEASURES]],
     }
     with tempfile.TemporaryDirectory(prefix="three_d_") as tmp:
         for name in args.parts:

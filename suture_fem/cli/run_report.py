@@ -147,7 +147,8 @@ def _measures(results: Any) -> str:
     if "seqv_cd_pa" in where:
         radius = results.get("scene", {}).get("output", {}).get("critical_distance_mm")
         bars = "" if "error_estimate" in results else "; error bars: run with --error-estimate"
-        measures.append(f"tissue SEQV and EPTOEQV averaged over a disc of radius {radius:g} mm where largest "
+        shape = "ball" if "model_3d" in results else "disc"  # 3-D: the ball's average
+        measures.append(f"tissue SEQV and EPTOEQV averaged over a {shape} of radius {radius:g} mm where largest "
                         f"(critical distance; converge under refinement{bars})")
     elif "seqv_pa" in where or "eptoeqv" in where:
         measures.append(f"tissue SEQV and EPTOEQV = {where.get('seqv_pa', where.get('eptoeqv'))} "

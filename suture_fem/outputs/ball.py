@@ -1,11 +1,10 @@
 """The critical-distance average in 3-D: a cell-wise field averaged over a ball (the 2-D disc's counterpart).
 
-A first piece only: the ball's quadrature rule and the average over the ball's part in a region at given
+The ball's quadrature rule and the average over the ball's part in a region at given
 centres, for a field that is constant on each cell (every stress and strain measure of P1 tetrahedra, whose
 deformation gradient is constant per cell), on the half model's mirror image (``mirror_z``: the solid
-z <= 0 and its reflection about the symmetry plane z = 0, where a scalar measure is even). Not yet an
-output: the search for the largest average over positions (2-D: :mod:`suture_fem.outputs.disc`) is not
-built, so 3-D scenes still refuse ``output.critical_distance_mm`` (:mod:`suture_fem.physics.three_d`).
+z <= 0 and its reflection about the symmetry plane z = 0, where a scalar measure is even). The search for the
+largest average over positions is :mod:`suture_fem.outputs.ball_search`.
 """
 
 from __future__ import annotations
@@ -47,20 +46,33 @@ def ball_averages(comm: Any, locate: Any, cell_values: np.ndarray, centres: np.n
     ``mirror_z`` a point with z > 0 is read at its mirror image (x, y, -z). Where no part of a ball lies in the
     region the average is NaN and the volume 0.
     """
-    from mpi4py import MPI
-
     offsets, weights = ball_rule(radius)
     points = (np.asarray(centres, dtype=float)[:, None, :] + offsets[None]).reshape(-1, 3)
     if mirror_z:
         points[:, 2] = -np.abs(points[:, 2])
     idx, cells = locate(points, keep=False)
-    sums, counts = np.zeros(len(points)), np.zeros(len(points))
-    np.add.at(sums, idx, np.asarray(cell_values, dtype=float)[cells])
+    values, inside = point_values(comm, idx, np.asarray(cell_values, dtype=float)[cells], len(points))
+    return weighted_averages(values.reshape(len(centres), -1), inside.reshape(len(centres), -1), weights)
+
+
+def point_values(comm: Any, idx: np.ndarray, values: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each of ``size`` points' value and whether any rank holds it (collective; 0 where none).
+
+    The value is the mean over the (point index ``idx``, cell value ``values``) pairs of every rank.
+    """
+    from mpi4py import MPI
+
+    both = np.zeros(2 * size)  # the sums, then the counts: one reduction
+    sums, counts = both[:size], both[size:]
+    np.add.at(sums, idx, values)
     np.add.at(counts, idx, 1.0)
-    comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
-    comm.Allreduce(MPI.IN_PLACE, counts, op=MPI.SUM)
-    inside = (counts > 0).reshape(len(centres), -1)
-    values = np.where(counts > 0, sums / np.maximum(counts, 1.0), 0.0).reshape(len(centres), -1)
+    if comm.size > 1:
+        comm.Allreduce(MPI.IN_PLACE, both, op=MPI.SUM)
+    return np.where(counts > 0, sums / np.maximum(counts, 1.0), 0.0), counts > 0
+
+
+def weighted_averages(values: np.ndarray, inside: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(average, volume) per row of the rule's point values (k, m) over the points ``inside``; NaN and 0: none."""
     volume = (inside * weights).sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         averages = np.where(volume > 0, (values * weights).sum(axis=1) / volume, np.nan)

@@ -12,6 +12,9 @@ question of the paper is about the cones, so each average is also given with the
 cone (``seqv_cd_cone_pa``, ``eptoeqv_cd_cone``: within :data:`CONE_ZONE_RADII` critical distances of a
 cone's surface), for the whole tissue only (the cones stand in the hypodermis: a layer's own value would
 repeat the tissue's or be absent) and only with cones.
+
+In 3-D the disc is a ball (:mod:`suture_fem.outputs.ball_search`: the same keys, the centre (x, y, z), near a
+cone measured in (r, y) = (sqrt(x^2 + z^2), y)).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from suture_fem.geometry.regions import MM, TISSUE_REGIONS, WHOLE_TISSUE
+from suture_fem.outputs.ball_search import BallRegion, ball_maxima
 from suture_fem.outputs.base import REPORT_REGIONS, Maximum, Quantity, Setup, State
 from suture_fem.outputs.disc import CellField, DiscMax, DiscPoints, coarse_starts, max_disc_average, top_points
 from suture_fem.outputs.eptoeqv import Eptoeqv
@@ -112,15 +116,21 @@ class CriticalDistance(Quantity):
         return any(option in quantities for _, option, _ in FIELDS)
 
     @staticmethod
-    def describe(output: OutputSection) -> dict[str, str]:
-        """Where the averages are taken."""
+    def describe(output: OutputSection, dimension: int = 2) -> dict[str, str]:
+        """Where the averages are taken (a disc of the r-z section in 2-D, a ball in 3-D)."""
         if output.critical_distance_mm <= 0:
             return {}
-        disc = (f"average over a disc of radius {output.critical_distance_mm:g} mm (output.critical_distance_mm) in "
-                "the r-z section, weighted by 2 pi r, over the disc's part in the region, at the position where it "
-                "is largest (theory of critical distances); _at_mm is the disc's centre; converges under refinement")
-        near = (f"; the same with the disc's centre within {CONE_ZONE_RADII:g} critical distances of a cone's surface "
-                "(the concentration the cones cause, apart from the thread's exit and other far ones)")
+        radius = f"{output.critical_distance_mm:g} mm (output.critical_distance_mm)"
+        if dimension == 3:
+            shape, centre = (f"ball of radius {radius} over the ball's part in the region, the half model read on its "
+                             "mirror image (the whole solid's ball)", "the ball's centre (x, y, z)")
+        else:
+            shape, centre = (f"disc of radius {radius} in the r-z section, weighted by 2 pi r, over the disc's part "
+                             "in the region", "the disc's centre")
+        disc = (f"average over a {shape}, at the position where it is largest (theory of critical distances); "
+                f"_at_mm is {centre}; converges under refinement")
+        near = (f"; the same with the {shape.split()[0]}'s centre within {CONE_ZONE_RADII:g} critical distances of a "
+                "cone's surface (the concentration the cones cause, apart from the thread's exit and other far ones)")
         return {"seqv_cd_pa": "von Mises stress " + disc, "eptoeqv_cd": "equivalent Hencky strain " + disc,
                 "seqv_cd_cone_pa": "von Mises stress " + disc + near, "eptoeqv_cd_cone": "equivalent Hencky strain "
                 + disc + near}
@@ -139,6 +149,7 @@ class CriticalDistance(Quantity):
         zone = CONE_ZONE_RADII * self.radius / MM
         self.near_cones = (None if segments is None else
                            lambda c: _segment_distance(segments, np.asarray(c) / MM) <= zone)
+        self.balls: dict[str, Any] = {}  # 3-D: each region's ball search
         if self.radius <= 0 or points is None:
             return
         layers_too = setup.output.critical_distance_layers  # each layer's own search: about 60 % of the cost
@@ -147,6 +158,9 @@ class CriticalDistance(Quantity):
             cells = np.concatenate([points.cells[t] for r in layers for t in REPORT_REGIONS[r] if len(points.cells[t])]
                                    or [np.zeros(0, dtype=np.int32)])
             mine = cells < owned
+            if mesh.geometry.dim == 3:
+                self.balls[region] = self._ball(region, layers, cells[mine], mine, segments, zone)
+                continue
             xy = np.concatenate([points.xy[r] for r in layers]).reshape(len(cells), -1, 2) if len(cells) else None
             locate = compat.cell_locator(mesh, cells[mine])
             self.parts[region] = (layers, cells[mine], mine, None if xy is None else xy[mine], locate,
@@ -155,7 +169,39 @@ class CriticalDistance(Quantity):
                 self.parts[WHOLE_TISSUE][1], np.concatenate([self.parts[r][1] for r in TISSUE_REGIONS])):
             self.stacked.add(WHOLE_TISSUE)
 
+    def _ball(self, region: str, layers: tuple[str, ...], cells: np.ndarray, mine: np.ndarray, segments: Any,
+              zone: float) -> tuple[Any, ...]:
+        """A region's 3-D search: (layers, which of its cells are owned, :class:`BallRegion`, near the cones).
+
+        The 3-D models are half models (z <= 0, symmetric about z = 0): the balls are read on the mirror.
+        A centre is near a cone when its (r, z) = (sqrt(x^2 + z^2), y) is (the thread along y).
+        """
+        ball = BallRegion(self.setup.physics.mesh, cells, self.radius, mirror_z=True)
+        near = None
+        if segments is not None and region == WHOLE_TISSUE:
+            def allowed(c: np.ndarray) -> np.ndarray:
+                c = np.asarray(c, dtype=float).reshape(-1, 3)
+                return _segment_distance(segments, np.column_stack([np.hypot(c[:, 0], c[:, 2]), c[:, 1]]) / MM) <= zone
+
+            near = (allowed, allowed(ball.centroids))
+        return layers, mine, ball, near
+
+    def _measure_ball(self, state: State, region: str) -> dict[str, Any]:
+        """The 3-D maxima: each field's cell values (the mean over a cell's points) searched over balls."""
+        layers, mine, ball, near = self.balls[region]
+        out: dict[str, Any] = {}
+        for name, fn in self.fields:
+            values = np.concatenate([fn(state, r) for r in layers])
+            values = values.reshape(len(mine), -1)[mine].mean(axis=1) if len(mine) else np.zeros(0)
+            found, near_max = ball_maxima(ball, values, near)
+            if near_max is not None and near_max.at is not None:
+                out[CONE_NAMES[name]] = _maximum(near_max)
+            out[name] = _maximum(found)
+        return out
+
     def _measure(self, state: State, region: str) -> dict[str, Any]:
+        if region in self.balls:
+            return self._measure_ball(state, region)
         if region not in self.parts:
             return {}
         xy = self.parts[region][3]

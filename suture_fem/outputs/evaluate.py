@@ -53,6 +53,8 @@ class Outputs:
         self.thread_end = ThreadEnd(self.setup)
         self.where = {name: text for cls in QUANTITIES if cls.wanted(quantities) or not cls.slab_only
                       for name, text in cls.describe(output).items()}
+        if physics.mesh.geometry.dim == 3:  # the critical distance's ball, not the disc
+            self.where.update(CriticalDistance.describe(output, dimension=3))
 
     @property
     def tensor_exprs(self) -> dict[int, Any]:

@@ -101,7 +101,10 @@ class LoadSteps:
 
     def report(self, force_n: float) -> None:
         """The outputs of the current state at a reported force (collective)."""
-        self.results.report(force_n, self.outputs.evaluate())
+        t0 = time.perf_counter()
+        record = self.outputs.evaluate()
+        self.clock.timings.outputs += time.perf_counter() - t0
+        self.results.report(force_n, record)
         self.snapshots.append(Snapshot.take(self.outputs.physics, force_n))
         if self.writer is not None:
             self.writer.write(force_n)

@@ -14,6 +14,8 @@ class Timings:
     guard: float = 0.0
     form_compilation: float = 0.0
     newton_total: float = 0.0
+    #: the outputs' evaluation at the reported forces (the critical-distance searches are most of it)
+    outputs: float = 0.0
 
     def as_dict(self) -> dict[str, float]:
         """Every timing, rounded to 0.1 ms, for results.json."""

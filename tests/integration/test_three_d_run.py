@@ -19,6 +19,8 @@ COARSE = ["geometry.cones=1", 'geometry.cone_kind="full"', "mesh.degree=1", "mes
           "loading.force_n=0.5", "loading.report_forces_n=[0.25]", "output.critical_distance_mm=0",
           'output.quantities=["usum","seqv","eptoeqv"]']
 COARSE_3D = [*COARSE, "geometry.dimension=3"]
+#: The same with the critical-distance ball (the whole tissue's search only: about 1 s a report here).
+COARSE_3D_CD = [*COARSE_3D, "output.critical_distance_mm=0.1", "output.critical_distance_layers=false"]
 #: The 3-D and 2-D models differ by their discretisations only: measured 2.5 % (USUM) and 1.7 % (energy)
 #: on these coarse meshes, shrinking on the ladder of benchmarks/three_d.py.
 COARSE_AGREEMENT = 0.05
@@ -26,7 +28,7 @@ COARSE_AGREEMENT = 0.05
 
 @pytest.fixture(scope="module")
 def three_d(tmp_path_factory):
-    return run_inprocess("paper", COARSE_3D, tmp_path_factory.mktemp("three_d"))
+    return run_inprocess("paper", COARSE_3D_CD, tmp_path_factory.mktemp("three_d"))
 
 
 @pytest.mark.slow
@@ -39,6 +41,21 @@ def test_the_half_model_balances_the_whole_pull_and_says_it_is_a_half_model(thre
         assert state["force_balance_rel"] < 1e-6
         assert len(state["usum_mm_at_mm"]) == 3
         assert state["regions"]["tissue"]["seqv_pa"] > 0
+
+
+@pytest.mark.slow
+def test_the_critical_distance_ball_is_reported_as_the_disc_is_in_2d(three_d):
+    """The 2-D keys, a ball's centre (x, y, z) in the half model, an average no larger than the field's peak."""
+    for state in three_d["at_forces"]:
+        tissue = state["regions"]["tissue"]
+        for name, peak in (("seqv_cd_pa", "seqv_pa"), ("eptoeqv_cd", "eptoeqv")):
+            near = name.replace("_cd", "_cd_cone")
+            assert 0 < tissue[near] <= tissue[name] <= tissue[peak]  # P1: an average of cell values, each a peak's
+            assert state[name] == tissue[name] and state[name + "_region"] == "tissue"
+            for key in (name, near):
+                assert len(tissue[key + "_at_mm"]) == 3 and tissue[key + "_at_mm"][2] <= 0.0
+        assert "ball of radius 0.1 mm" in state["where"]["seqv_cd_pa"]
+        assert "seqv_cd_pa" not in state["regions"]["dermis"]  # output.critical_distance_layers = false
 
 
 @pytest.mark.slow

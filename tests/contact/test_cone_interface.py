@@ -107,6 +107,8 @@ def test_the_load_shares_sum_to_the_pull(model, sliding, frictionless):
     assert rec["interface"]["cones"] == model
     assert sum(rec["load_share_n"].values()) == pytest.approx(rec["force_n"], rel=1e-9)
     assert rec["interface"]["cone_contact"]["model"] == model
+    # the residual left at the free dofs, the cones' contact forces counted: balanced to the solver's test
+    assert rec["free_residual_norm_n"] <= 1e-6 * rec["force_n"]
 
 
 def test_a_frictionless_cone_lifts_off_and_the_lift_grows_from_tied_through_sliding(tmp_path_factory, sliding,

@@ -194,6 +194,7 @@ def test_coulomb_friction_lifts_between_tied_and_frictionless_and_more_as_fricti
     for res in coulomb.values():
         rec = res["at_forces"][-1]
         assert sum(rec["load_share_n"].values()) == pytest.approx(rec["force_n"], rel=1e-9)
+        assert rec["free_residual_norm_n"] <= 1e-6 * rec["force_n"]  # the friction's forces counted
 
 
 def test_coulomb_friction_obeys_its_law_where_the_tissue_touches_the_thread(coulomb):

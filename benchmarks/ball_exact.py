@@ -100,6 +100,7 @@ def main() -> int:
     setup = model.outputs.setup
     print(f"{model.results.run['dofs']:,} dofs, {model.results.run['cells']:,} tetrahedra", flush=True)
     labels = ("288-point rule", "cell overlaps (the package's)", "exact overlap")
+    schemes, centres = {}, []
     for label in labels if args.exact else labels[:2]:
         t0 = time.process_time()
         cd = CriticalDistance(setup, radius_mm=0.1)
@@ -108,11 +109,26 @@ def main() -> int:
             region.averages = region.rule_averages  # the search calls it by this name
         if label == labels[2]:
             region.averages = ExactOverlap(region, model.mesh).averages
+        schemes[label] = (cd, region.averages)
         found = cd.in_tissue(State(setup))
+        centres += [(label, k, np.asarray(v.at_mm) * 1e-3) for k, v in found.items() if k.startswith("seqv")]
         spent = time.process_time() - t0
         cells = "; ".join(f"{k} {v.value:.6g} at ({', '.join(f'{c:.3f}' for c in v.at_mm)})" for k, v in found.items())
         print(f"{label}, {spent:.1f} s CPU: {cells}", flush=True)
+    cross(schemes, centres, State(setup))
     return 0
+
+
+def cross(schemes: dict, centres: list, state: State) -> None:
+    """Every scheme's SEQV ball average at every scheme's SEQV maxima: the schemes' errors at the same centre."""
+    for label, key, at in centres:
+        row = []
+        for other, (cd, averages) in schemes.items():
+            layers, mine, _, _ = cd.balls["tissue"]
+            fn = dict(cd.fields)["seqv_cd_pa"]
+            values = np.concatenate([fn(state, r) for r in layers]).reshape(len(mine), -1)[mine].mean(axis=1)
+            row.append(f"{other} {averages(values, at[None])[0]:.6g}")
+        print(f"at {label}'s {key} ({', '.join(f'{c * 1e3:.3f}' for c in at)}): {'; '.join(row)}", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""The ball average of a cell-wise constant field from each cell's overlap volume with the ball (collective).
+"""The ball average of a cell-wise constant field from each cell's overlap volume with the ball, on one rank.
 
 For a field constant on each tetrahedron the ball average is sum_c v_c |B n c| / sum_c |B n c|. A cell whose
 four vertices lie in the ball is inside it (the ball is convex): its whole volume, exactly. A cell farther from
@@ -9,6 +9,7 @@ the ball. So the error is confined to the cells on the ball's surface, however s
 a point rule's error is not (each of its points weighs a fixed share of the ball, whatever cell it falls in).
 With ``mirror`` the ball's part above the plane z = 0 is read at its mirror image (the half model). Hand-written;
 the cells near a centre are found by scipy's k-d tree over the centroids, per group of cells of similar reach.
+Each rank sums its own cells; :class:`suture_fem.outputs.ball_search.BallRegion` reduces the sums over ranks.
 """
 
 from __future__ import annotations

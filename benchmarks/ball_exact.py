@@ -5,11 +5,11 @@ the ball's overlap volume with each cell, which PyPI's ``overlap`` computes (Str
 calculation of the overlap volume of spheres and mesh elements"). It is not a dependency of the package:
 install it beside Debian's numpy, without its own (``.venv/bin/pip install --no-deps overlap``; 0.2.0 ran
 here with numpy 1.24.2). Solves one 3-D scene (as ``benchmarks/ball_rule.py``), then searches the whole
-tissue with the default 288-point rule and with the exact overlap volumes in its place (the same
-candidates, climbs and mirror), single rank.
+tissue with the 288-point rule, the package's sampled cell overlaps (``outputs/ball_cells.py``) and, with
+``--exact``, the exact overlap volumes in their place (the same candidates, climbs and mirror), single rank.
 
     .venv/bin/python benchmarks/ball_exact.py --set geometry.cones=1 --set mesh.size_suture_mm=0.3 \\
-        --set mesh.size_rim_mm=0.1 --set mesh.size_far_mm=2.4
+        --set mesh.size_rim_mm=0.1 --set mesh.size_far_mm=2.4 [--exact]
 """
 
 from __future__ import annotations
@@ -89,6 +89,7 @@ class ExactOverlap:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--set", action="append", default=[], dest="sets")
+    parser.add_argument("--exact", action="store_true", help="with PyPI's overlap too")
     args = parser.parse_args()
     values = {}
     for text in [*BASE, *args.sets]:
@@ -98,17 +99,36 @@ def main() -> int:
     model.solve()
     setup = model.outputs.setup
     print(f"{model.results.run['dofs']:,} dofs, {model.results.run['cells']:,} tetrahedra", flush=True)
-    for label in ("288-point rule", "exact overlap"):
+    labels = ("288-point rule", "cell overlaps (the package's)", "exact overlap")
+    schemes, centres = {}, []
+    for label in labels if args.exact else labels[:2]:
         t0 = time.process_time()
         cd = CriticalDistance(setup, radius_mm=0.1)
-        if label == "exact overlap":
-            region = cd.balls["tissue"][2]
-            region.averages = ExactOverlap(region, model.mesh).averages  # the search calls it by this name
+        region = cd.balls["tissue"][2]
+        if label == labels[0]:
+            region.averages = region.rule_averages  # the search calls it by this name
+        if label == labels[2]:
+            region.averages = ExactOverlap(region, model.mesh).averages
+        schemes[label] = (cd, region.averages)
         found = cd.in_tissue(State(setup))
+        centres += [(label, k, np.asarray(v.at_mm) * 1e-3) for k, v in found.items() if k.startswith("seqv")]
         spent = time.process_time() - t0
         cells = "; ".join(f"{k} {v.value:.6g} at ({', '.join(f'{c:.3f}' for c in v.at_mm)})" for k, v in found.items())
         print(f"{label}, {spent:.1f} s CPU: {cells}", flush=True)
+    cross(schemes, centres, State(setup))
     return 0
+
+
+def cross(schemes: dict, centres: list, state: State) -> None:
+    """Every scheme's SEQV ball average at every scheme's SEQV maxima: the schemes' errors at the same centre."""
+    for label, key, at in centres:
+        row = []
+        for other, (cd, averages) in schemes.items():
+            layers, mine, _, _ = cd.balls["tissue"]
+            fn = dict(cd.fields)["seqv_cd_pa"]
+            values = np.concatenate([fn(state, r) for r in layers]).reshape(len(mine), -1)[mine].mean(axis=1)
+            row.append(f"{other} {averages(values, at[None])[0]:.6g}")
+        print(f"at {label}'s {key} ({', '.join(f'{c * 1e3:.3f}' for c in at)}): {'; '.join(row)}", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,10 +1,12 @@
 """Benchmark: how the 3-D critical-distance ball's largest averages depend on its quadrature rule.
 
 Solves one 3-D scene (the paper cylinder, P1, to 1 N; ``--set`` overrides as for ``suture-fem run``), then
-searches the whole tissue's largest ball averages (``outputs/ball_search.py``) with the default rule (4 radial
-x 6 polar x 12 azimuthal = 288 points, ``outputs/ball.py``) and finer ones, on the same solved state; prints
+searches the whole tissue's largest ball averages (``outputs/ball_search.py``) with the point rule (4 radial
+x 6 polar x 12 azimuthal = 288 points, ``outputs/ball.py``; the package's average before the cells' overlap
+volumes, ``outputs/ball_cells.py``) and finer ones, on the same solved state; prints
 each rule's maxima, their centres and the search's CPU seconds (the first search of a state, and the same
-state again, where the located points are kept). ``--default-only``: the default rule alone; ``--layers``:
+state again, where the located points are kept). ``--overlaps``: the package's cell overlaps
+(``outputs/ball_cells.py``) first. ``--default-only``: the default rule alone; ``--layers``:
 each tissue layer's searches too (``output.critical_distance_layers``, the default of a scene), the cost
 of a report's critical-distance outputs.
 
@@ -20,6 +22,8 @@ import sys
 import time
 import tomllib
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -42,6 +46,7 @@ def main() -> int:
     parser.add_argument("--set", action="append", default=[], dest="sets")
     parser.add_argument("--default-only", action="store_true")
     parser.add_argument("--layers", action="store_true")
+    parser.add_argument("--overlaps", action="store_true", help="the package's cell overlaps first")
     args = parser.parse_args()
     values = {}
     for text in [*BASE, *args.sets, *(["output.critical_distance_layers=true"] if args.layers else [])]:
@@ -51,10 +56,15 @@ def main() -> int:
     model.solve()
     setup = model.outputs.setup
     print(f"{model.results.run['dofs']:,} dofs, {model.results.run['cells']:,} tetrahedra", flush=True)
-    for rule in RULES[:1] if args.default_only else RULES:  # the search reads its rule from ball_search's name
-        ball_search.ball_rule = functools.partial(ball.ball_rule, radial=rule[0], polar=rule[1], azimuthal=rule[2])
+    rules = list(RULES[:1] if args.default_only else RULES)
+    for rule in [None, *rules] if args.overlaps else rules:  # the search reads its rule from ball_search's name
+        if rule is not None:
+            ball_search.ball_rule = functools.partial(ball.ball_rule, radial=rule[0], polar=rule[1], azimuthal=rule[2])
         t0 = time.process_time()
         cd = CriticalDistance(setup, radius_mm=0.1)
+        for _, _, region, _ in cd.balls.values():  # the package's average is the cells' overlaps: the rule's here
+            if rule is not None:
+                region.averages = region.rule_averages
         built = time.process_time() - t0
         spent = []
         for _ in range(2):  # the first search of the state, then the same state again
@@ -65,7 +75,8 @@ def main() -> int:
             found = cd.in_tissue(state)
             spent.append(time.process_time() - t0)
         cells = "; ".join(f"{k} {v.value:.6g} at ({', '.join(f'{c:.3f}' for c in v.at_mm)})" for k, v in found.items())
-        print(f"{rule[0]} x {rule[1]} x {rule[2]} = {rule[0] * rule[1] * rule[2]} points, CPU s: built {built:.2f}, "
+        name = "cell overlaps" if rule is None else f"{rule[0]} x {rule[1]} x {rule[2]} = {np.prod(rule)} points"
+        print(f"{name}, CPU s: built {built:.2f}, "
               f"first {spent[0]:.2f}, again {spent[1]:.2f}; tissue: {cells}", flush=True)
     return 0
 

@@ -1,8 +1,9 @@
 """The critical-distance search in 3-D: the largest ball average of a cell-wise field over positions (collective).
 
-The 3-D counterpart of the disc search of :mod:`suture_fem.outputs.disc`, with the ball of
-:mod:`suture_fem.outputs.ball` (the average over the ball's part in the region, on the half model's mirror
-image). The field is constant per cell: P1 tetrahedra's stress and strain are; with P2 a cell's value is the
+The 3-D counterpart of the disc search of :mod:`suture_fem.outputs.disc`: the average over the ball's part
+in the region, on the half model's mirror image, from each cell's overlap volume with the ball
+(:mod:`suture_fem.outputs.ball_cells`; the point rule of :mod:`suture_fem.outputs.ball`, biased high at a
+sharp rim meshed finer than the ball, is kept as :meth:`BallRegion.rule_averages` for comparison). The field is constant per cell: P1 tetrahedra's stress and strain are; with P2 a cell's value is the
 mean of its quadrature-point values (a piecewise-constant view). The 2-D search's steps, adapted:
 
 * candidate centres of two kinds, up to :data:`CANDIDATES` of each, at least R apart: the region's largest
@@ -16,10 +17,10 @@ mean of its quadrature-point values (a piecewise-constant view). The 2-D search'
 * a ball's centre must lie in the region (with the mirror, its image in z <= 0 does).
 
 Grids fixed in space, and candidates gathered from every rank and ordered by value and position, make the
-search the same on every partition: 2 ranks give the serial answer. Every rank locates the balls' points in
-its owned cells; the values are reduced over ranks (:func:`~suture_fem.outputs.ball.point_values`), so every
-rank computes the same averages. Where each centre's points fall is kept (:class:`BallRegion`): later
-fields and states only read their values there.
+search the same on every partition: 2 ranks give the serial answer. Every rank sums the overlaps of its
+owned cells; the sums are reduced over ranks, so every rank computes the same averages. Each centre's cells
+and overlap volumes are kept (:class:`~suture_fem.outputs.ball_cells.CellOverlap`): later fields and states
+only read their values there.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from suture_fem.outputs.ball import ball_rule, point_values, weighted_averages
+from suture_fem.outputs.ball_cells import CellOverlap
 from suture_fem.outputs.disc import DiscMax, _largest
 from suture_fem.support import compat
 
@@ -54,7 +56,7 @@ Allowed = Callable[[np.ndarray], np.ndarray]
 
 
 class BallRegion:
-    """A region's owned cells for the ball averages, and where the points of each ball asked for fell.
+    """A region's owned cells for the ball averages, and the cells each ball asked for overlaps.
 
     ``cells``: local owned cell indices; a field is given as one value per cell, in this order.
     ``mirror_z``: the half model z <= 0, read at mirror images above the plane z = 0.
@@ -70,6 +72,7 @@ class BallRegion:
         self.centroids = vertices.mean(axis=1) if len(self.cells) else np.zeros((0, 3))
         self.locate = compat.cell_locator(mesh, self.cells)
         self.offsets, self.weights = ball_rule(radius)
+        self.cells_overlap = CellOverlap(vertices, radius, mirror_z)
         self.unit = radius * LEVELS[-1]
         self.kept: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self.box = _box(self.comm, self.centroids)
@@ -83,7 +86,25 @@ class BallRegion:
         return centres
 
     def averages(self, values: np.ndarray, centres: np.ndarray) -> np.ndarray:
-        """The field's average over each ball's part in the region; -inf where the centre is outside it (collective)."""
+        """The field's average over each ball's part in the region; -inf where the centre is outside it (collective).
+
+        From each cell's overlap volume with the ball (:mod:`suture_fem.outputs.ball_cells`).
+        """
+        from mpi4py import MPI
+
+        centres = self.fold(centres)
+        idx, _ = self.locate(centres, keep=False)
+        both = np.zeros((len(centres), 3))
+        both[:, :2] = self.cells_overlap.sums(values, centres)
+        both[idx, 2] = 1.0
+        if self.comm.size > 1:
+            self.comm.Allreduce(MPI.IN_PLACE, both, op=MPI.SUM)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            avg = np.where(both[:, 1] > 0, both[:, 0] / both[:, 1], np.nan)
+        return np.where((both[:, 2] > 0) & np.isfinite(avg), avg, -np.inf)
+
+    def rule_averages(self, values: np.ndarray, centres: np.ndarray) -> np.ndarray:
+        """As :meth:`averages`, from the ball's point rule (:func:`~suture_fem.outputs.ball.ball_rule`)."""
         centres = self.fold(centres)
         k, m = len(centres), len(self.offsets) + 1
         idx, rows = self._located(centres)

@@ -19,4 +19,4 @@ def test_ball_averages_on_two_ranks():
            "tests/unit/test_ball_search.py"]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=mpi_env(), cwd=ROOT, timeout=300)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
-    assert proc.stdout.count("6 passed") == 2  # both ranks ran all six
+    assert proc.stdout.count("7 passed") == 2  # both ranks ran all seven

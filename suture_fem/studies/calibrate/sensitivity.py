@@ -31,6 +31,7 @@ from petsc4py import PETSc
 from suture_fem.geometry.regions import MM
 from suture_fem.physics.problem import Physics
 from suture_fem.scene.schema import OutputSection
+from suture_fem.solve import jacobian
 from suture_fem.solve.reduction import Reduction
 from suture_fem.studies.calibrate.data import EPTOEQV_CD, SEQV_CD, THREAD_END, USUM
 from suture_fem.studies.calibrate.measures import TissueMeasures
@@ -50,7 +51,7 @@ class Sensitivity:
         self._measures: TissueMeasures | None = None
         self.reduction = Reduction(physics)
         self.J_form = physics.form("jacobian")
-        self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
+        self.A_full = jacobian.create(physics, self.J_form)  # with room for the nodal terms (contact, friction)
         self.du_state = dolfinx.fem.Function(physics.W)
         self.du = dolfinx.fem.Function(physics.V) if physics.u_in_state is not None else self.du_state
         self.end_form = dolfinx.fem.form(ufl.replace(physics.end_displacement, {physics.u: self.du}))
@@ -146,12 +147,10 @@ class Sensitivity:
         (no assembly, no factorisation, unless its last one was shifted by the inertia correction); without,
         A is assembled and factorised once here for every key.
         """
-        if solver is not None:
+        if solver is not None and not jacobian.follows_state(self.physics):
             return self._derivatives(keys, solver.reduction.T, solver.solve_reduced)
         T = self.reduction.T
-        self.A_full.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
-        self.A_full.assemble()
+        jacobian.assemble(self.physics, self.J_form, self.A_full, settled=True)  # the nodal terms' too
         A = self.A_full.ptap(T)
         ksp = PETSc.KSP().create(self.physics.comm)
         ksp.setOperators(A)

@@ -26,18 +26,20 @@ CURVE_FRACTIONS = tuple(np.linspace(0.1, 1.0, 10))
 
 
 def check_scene(scene: Scene) -> None:
-    """A calibration solves quasi-static ramps with exact sensitivities: inertia and friction are refused (SceneError).
+    """A calibration solves quasi-static ramps with exact sensitivities: inertia and Coulomb friction are refused.
 
-    Coulomb friction's terms are assembled outside the forms the sensitivities differentiate.
+    The cones' and the thread's contact terms are in the sensitivities' Jacobian (:mod:`suture_fem.solve.jacobian`,
+    the augmented Lagrangian's pressed nodes held on their cones); Coulomb friction's bound follows the contact
+    pressure between Newton solves, which the frozen-bound Jacobian leaves out (SceneError).
     """
     if scene.effects.inertia:
         raise SceneError("scene key effects.inertia = true: calibrate fits quasi-static ramps (set it false)")
     if scene.effects.thread_interface == "coulomb":
         raise SceneError('scene key effects.thread_interface = "coulomb": calibrate\'s sensitivities do not include '
-                         'friction (use "tied", "sliding" or "frictionless")')
-    if scene.effects.cone_interface != "tied":
-        raise SceneError(f'scene key effects.cone_interface = "{scene.effects.cone_interface}": calibrate\'s '
-                         'sensitivities do not include the cones\' hand-assembled contact terms (use "tied")')
+                         'the friction bound\'s dependence on the pressure (use "tied", "sliding" or "frictionless")')
+    if scene.effects.cone_interface == "coulomb":
+        raise SceneError('scene key effects.cone_interface = "coulomb": calibrate\'s sensitivities do not include '
+                         'the friction bound\'s dependence on the pressure (use "tied", "sliding" or "frictionless")')
 
 
 def calibrate(scene: Scene, points: list[Point], keys: list[FitKey], comm: Any, out: Path | None = None,

@@ -3,15 +3,15 @@
 Runs ``suture-fem reproduce --no-pictures`` once per model (tied, sliding, frictionless, Coulomb at
 friction coefficients 0.1, 0.3, 0.5), uncalibrated (``--calibrate none``) and, with ``--calibrated``,
 under the one-parameter protocol (``materials.tissue_scale`` fitted to USUM 4.0 mm at 4 cones, 1 N;
-``calibrate`` refuses a Coulomb thread, whose friction terms its sensitivities do not include). Prints
+``calibrate`` refuses Coulomb cones, docs/contact.md). Prints
 the seven paper USUM values against each model's, the 1-cone to 4-cone USUM ratio (the paper's 1.825),
 and the converged stress and strain measures near a cone at 1 N, and writes JSON.
 
     .venv/bin/python benchmarks/reproduce_interfaces.py [--out benchmarks/out/reproduce_interfaces]
-        [--calibrated] [--reuse] [--timeout 1800] [--vary thread|cone]
+        [--calibrated] [--reuse] [--timeout 1800] [--vary thread|cone] [--models "frictionless,coulomb 0.1"]
 
-``--vary cone`` sets ``effects.cone_interface`` instead, the thread tied (uncalibrated only: ``calibrate``
-refuses a cone interface).
+``--vary cone`` sets ``effects.cone_interface`` instead, the thread tied. ``--models`` runs only those named.
+The CPU reported is every child process's (reproduce and its ramps' processes), from ``getrusage``.
 
 ``--reuse`` reads an earlier run's folders instead of solving again. A model whose reproduce run
 stops or times out is reported as such (its folder keeps what converged).
@@ -135,8 +135,8 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for calibrated in (False, True) if args.calibrated else (False,):
         for model in models:
-            if calibrated and model.startswith("coulomb"):
-                continue
+            if calibrated and model.startswith("coulomb") and args.vary == "cone":
+                continue  # calibrate refuses Coulomb cones
             tag = ("calibrated_" if calibrated else "") + model.replace(" ", "_")
             rows.append(run(model, calibrated, out / tag, args.timeout, args.vary))
     for calibrated in (False, True):

@@ -26,20 +26,19 @@ CURVE_FRACTIONS = tuple(np.linspace(0.1, 1.0, 10))
 
 
 def check_scene(scene: Scene) -> None:
-    """A calibration solves quasi-static ramps with exact sensitivities: inertia and Coulomb friction are refused.
+    """A calibration solves quasi-static ramps with direct sensitivities: inertia and Coulomb cones are refused.
 
-    The cones' and the thread's contact terms are in the sensitivities' Jacobian (:mod:`suture_fem.solve.jacobian`,
-    the augmented Lagrangian's pressed nodes held on their cones); Coulomb friction's bound follows the contact
-    pressure between Newton solves, which the frozen-bound Jacobian leaves out (SceneError).
+    The contact terms are in the sensitivities' Jacobian (:mod:`suture_fem.solve.jacobian`; a settled augmented
+    Lagrangian's pressed nodes held on their cones). A Coulomb bound follows the contact pressure between Newton
+    solves, which the frozen-bound Jacobian leaves out: 1.3e-4 of the derivative for the thread, whose fit to
+    reproduce's target lands on the root of a derivative-free search (docs/contact.md), so it is accepted;
+    3.3e-4 for the cones, whose fit was not checked so (SceneError).
     """
     if scene.effects.inertia:
         raise SceneError("scene key effects.inertia = true: calibrate fits quasi-static ramps (set it false)")
-    if scene.effects.thread_interface == "coulomb":
-        raise SceneError('scene key effects.thread_interface = "coulomb": calibrate\'s sensitivities do not include '
-                         'the friction bound\'s dependence on the pressure (use "tied", "sliding" or "frictionless")')
     if scene.effects.cone_interface == "coulomb":
-        raise SceneError('scene key effects.cone_interface = "coulomb": calibrate\'s sensitivities do not include '
-                         'the friction bound\'s dependence on the pressure (use "tied", "sliding" or "frictionless")')
+        raise SceneError('scene key effects.cone_interface = "coulomb": calibrate\'s sensitivities leave out the '
+                         'friction bound\'s dependence on the pressure (use "tied", "sliding" or "frictionless")')
 
 
 def calibrate(scene: Scene, points: list[Point], keys: list[FitKey], comm: Any, out: Path | None = None,

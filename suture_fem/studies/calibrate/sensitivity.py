@@ -10,6 +10,10 @@ its last iteration (inside the solve's tolerance of the converged state) solves 
 of that state: no assembly, no factorisation, unless the inertia correction shifted that last
 factorisation (then A is assembled and factorised once). Callers without a solver (reproduce's USUM
 bands, at each state a solved Model reports) get A assembled at the state and factorised once (MUMPS LU).
+A is the Newton solver's full Jacobian, the hand-assembled contact and friction terms included
+(:mod:`suture_fem.solve.jacobian`). With the cones' augmented Lagrangian the settled state's derivative
+holds the pressed nodes on their cones (the multipliers follow the state), which Newton's frozen
+multipliers do not: A is then always assembled here (``settled``), one factorisation per state.
 
 From du/dp: the thread end's displacement is a linear functional of u (the same form, evaluated at
 du/dp); USUM is max |u_i| over the nodes, whose derivative at its node i* is u_i* . du_i*/dp / |u_i*|; the
@@ -145,7 +149,8 @@ class Sensitivity:
 
         With ``solver`` (the NewtonSolver that just converged) its factorisation solves A du/dp = -dR/dp
         (no assembly, no factorisation, unless its last one was shifted by the inertia correction); without,
-        A is assembled and factorised once here for every key.
+        or with the cones' augmented Lagrangian (:func:`~suture_fem.solve.jacobian.follows_state`), A is
+        assembled and factorised once here for every key.
         """
         if solver is not None and not jacobian.follows_state(self.physics):
             return self._derivatives(keys, solver.reduction.T, solver.solve_reduced)

@@ -58,16 +58,12 @@ def test_frictionless_cones_sensitivity_equals_central_difference():
     _check("frictionless", 1e-5)
 
 
-@pytest.mark.parametrize("interface, refused", [('effects.cone_interface="coulomb"', True),
-                                                ('effects.cone_interface="frictionless"', False),
-                                                ('effects.thread_interface="coulomb"', False)])
-def test_only_coulomb_cones_are_refused(interface, refused):
+@pytest.mark.parametrize("interface", ['effects.cone_interface="coulomb"', 'effects.thread_interface="coulomb"',
+                                       'effects.cone_interface="frictionless"'])
+def test_calibrate_takes_every_interface_model(interface):
     from suture_fem.studies.calibrate.study import check_scene
     from suture_fem.support.errors import SceneError
 
-    scene = load_scene("paper", ["mesh.degree=1", interface])
-    if refused:
-        with pytest.raises(SceneError, match="effects.cone_interface"):
-            check_scene(scene)
-    else:
-        assert check_scene(scene) is None
+    assert check_scene(load_scene("paper", ["mesh.degree=1", interface])) is None
+    with pytest.raises(SceneError, match="effects.inertia"):
+        check_scene(load_scene("paper", ["mesh.degree=1", interface, "effects.inertia=true"]))

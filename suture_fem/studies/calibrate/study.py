@@ -26,19 +26,16 @@ CURVE_FRACTIONS = tuple(np.linspace(0.1, 1.0, 10))
 
 
 def check_scene(scene: Scene) -> None:
-    """A calibration solves quasi-static ramps with direct sensitivities: inertia and Coulomb cones are refused.
+    """A calibration solves quasi-static ramps with direct sensitivities: inertia is refused (SceneError).
 
     The contact terms are in the sensitivities' Jacobian (:mod:`suture_fem.solve.jacobian`; a settled augmented
     Lagrangian's pressed nodes held on their cones). A Coulomb bound follows the contact pressure between Newton
-    solves, which the frozen-bound Jacobian leaves out: 1.3e-4 of the derivative for the thread, whose fit to
-    reproduce's target lands on the root of a derivative-free search (docs/contact.md), so it is accepted;
-    3.3e-4 for the cones, whose fit was not checked so (SceneError).
+    solves, which the frozen-bound Jacobian leaves out (1.3e-4 of the derivative for the thread, 3.3e-4 for the
+    cones, one cone at 0.5 N); on reproduce's target the fit lands on the root of a derivative-free search for
+    both (docs/contact.md), so Coulomb is accepted.
     """
     if scene.effects.inertia:
         raise SceneError("scene key effects.inertia = true: calibrate fits quasi-static ramps (set it false)")
-    if scene.effects.cone_interface == "coulomb":
-        raise SceneError('scene key effects.cone_interface = "coulomb": calibrate\'s sensitivities leave out the '
-                         'friction bound\'s dependence on the pressure (use "tied", "sliding" or "frictionless")')
 
 
 def calibrate(scene: Scene, points: list[Point], keys: list[FitKey], comm: Any, out: Path | None = None,

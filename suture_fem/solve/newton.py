@@ -55,7 +55,7 @@ from petsc4py import PETSc
 from suture_fem.physics.effects.friction import nodal_terms, settle, slip_laws
 from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.schema import SolverSection
-from suture_fem.solve import inertia, linear
+from suture_fem.solve import inertia, jacobian, linear
 from suture_fem.solve.guard import DomainGuard, Violation
 from suture_fem.solve.linearised import Linearised
 from suture_fem.solve.records import Timings
@@ -99,13 +99,8 @@ class NewtonSolver(Linearised):
         self.objective_form = kept("objective", lambda: _potential_form(problem))
         self.reduction = Reduction(problem, offset)
         self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
-        self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
+        self.A_full = jacobian.create(problem, self.J_form)
         self.nodal, self.laws = nodal_terms(problem), slip_laws(problem)  # hand-assembled: friction, cone contact
-        if self.nodal:  # the forms' pattern in place before the nodal terms widen it (pattern.widen keeps it)
-            dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
-            self.A_full.assemble()
-        for terms in self.nodal:
-            terms.extend_pattern(self.A_full)
         self._assemble_full_jacobian()
         self.A = self.A_full.ptap(self.reduction.T)
         self.b = self.reduction.create_vector()
@@ -235,11 +230,7 @@ class NewtonSolver(Linearised):
         return value
 
     def _assemble_full_jacobian(self) -> None:
-        self.A_full.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
-        self.A_full.assemble()
-        for terms in self.nodal:
-            terms.add_jacobian(compat.function_vector(self.physics.state), self.A_full)
+        jacobian.assemble(self.physics, self.J_form, self.A_full)  # the forms' and the nodal terms' (shared)
 
     def _jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         self.jacobian_current = True  # the factorisation SNES makes next is A at this iterate

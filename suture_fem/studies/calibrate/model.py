@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from suture_fem.geometry import mesh as meshmod
+from suture_fem.physics.effects.friction import slip_laws
 from suture_fem.physics.problem import build_physics
 from suture_fem.pipeline import with_values
 from suture_fem.scene import Scene
@@ -112,6 +113,8 @@ class Case:
         physics.sync()
         if physics.rigid_displacement is not None:
             physics.rigid_displacement.value = 0.0
+        for law in slip_laws(physics):  # from rest: no contact pressure, no slip bound, no multiplier
+            law.reset()
         scene = with_values(self.scene, {"loading.force_n": max(forces), "loading.report_forces_n": sorted(forces)})
         at: dict[float, tuple[list[float], list[np.ndarray]]] = {}
 

@@ -10,6 +10,10 @@ its last iteration (inside the solve's tolerance of the converged state) solves 
 of that state: no assembly, no factorisation, unless the inertia correction shifted that last
 factorisation (then A is assembled and factorised once). Callers without a solver (reproduce's USUM
 bands, at each state a solved Model reports) get A assembled at the state and factorised once (MUMPS LU).
+A is the Newton solver's full Jacobian, the hand-assembled contact and friction terms included
+(:mod:`suture_fem.solve.jacobian`). With the cones' augmented Lagrangian the settled state's derivative
+holds the pressed nodes on their cones (the multipliers follow the state), which Newton's frozen
+multipliers do not: A is then always assembled here (``settled``), one factorisation per state.
 
 From du/dp: the thread end's displacement is a linear functional of u (the same form, evaluated at
 du/dp); USUM is max |u_i| over the nodes, whose derivative at its node i* is u_i* . du_i*/dp / |u_i*|; the
@@ -31,6 +35,7 @@ from petsc4py import PETSc
 from suture_fem.geometry.regions import MM
 from suture_fem.physics.problem import Physics
 from suture_fem.scene.schema import OutputSection
+from suture_fem.solve import jacobian
 from suture_fem.solve.reduction import Reduction
 from suture_fem.studies.calibrate.data import EPTOEQV_CD, SEQV_CD, THREAD_END, USUM
 from suture_fem.studies.calibrate.measures import TissueMeasures
@@ -50,7 +55,7 @@ class Sensitivity:
         self._measures: TissueMeasures | None = None
         self.reduction = Reduction(physics)
         self.J_form = physics.form("jacobian")
-        self.A_full = dolfinx.fem.petsc.create_matrix(self.J_form)
+        self.A_full = jacobian.create(physics, self.J_form)  # with room for the nodal terms (contact, friction)
         self.du_state = dolfinx.fem.Function(physics.W)
         self.du = dolfinx.fem.Function(physics.V) if physics.u_in_state is not None else self.du_state
         self.end_form = dolfinx.fem.form(ufl.replace(physics.end_displacement, {physics.u: self.du}))
@@ -144,14 +149,13 @@ class Sensitivity:
 
         With ``solver`` (the NewtonSolver that just converged) its factorisation solves A du/dp = -dR/dp
         (no assembly, no factorisation, unless its last one was shifted by the inertia correction); without,
-        A is assembled and factorised once here for every key.
+        or with the cones' augmented Lagrangian (:func:`~suture_fem.solve.jacobian.follows_state`), A is
+        assembled and factorised once here for every key.
         """
-        if solver is not None:
+        if solver is not None and not jacobian.follows_state(self.physics):
             return self._derivatives(keys, solver.reduction.T, solver.solve_reduced)
         T = self.reduction.T
-        self.A_full.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(self.A_full, self.J_form)
-        self.A_full.assemble()
+        jacobian.assemble(self.physics, self.J_form, self.A_full, settled=True)  # the nodal terms' too
         A = self.A_full.ptap(T)
         ksp = PETSc.KSP().create(self.physics.comm)
         ksp.setOperators(A)

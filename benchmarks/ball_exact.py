@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +29,7 @@ from suture_fem.outputs import ball_search  # noqa: E402
 from suture_fem.outputs.base import State  # noqa: E402
 from suture_fem.outputs.critical_distance import CriticalDistance  # noqa: E402
 from suture_fem.scene import Scene  # noqa: E402
+from suture_fem.scene.load import parse_override  # noqa: E402
 from suture_fem.support import compat  # noqa: E402
 
 BASE = ["geometry.dimension=3", "mesh.degree=1", 'output.quantities=["usum","seqv","eptoeqv"]',
@@ -91,11 +91,7 @@ def main() -> int:
     parser.add_argument("--set", action="append", default=[], dest="sets")
     parser.add_argument("--exact", action="store_true", help="with PyPI's overlap too")
     args = parser.parse_args()
-    values = {}
-    for text in [*BASE, *args.sets]:
-        key, value = text.split("=", 1)
-        values[key] = tomllib.loads(f"v = {value}")["v"]
-    model = Model(Scene.from_values(values))
+    model = Model(Scene.from_values(dict(parse_override(text) for text in [*BASE, *args.sets])))
     model.solve()
     setup = model.outputs.setup
     print(f"{model.results.run['dofs']:,} dofs, {model.results.run['cells']:,} tetrahedra", flush=True)

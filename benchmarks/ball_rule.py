@@ -20,7 +20,6 @@ import argparse
 import functools
 import sys
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +32,7 @@ from suture_fem.outputs import ball, ball_search  # noqa: E402
 from suture_fem.outputs.base import State  # noqa: E402
 from suture_fem.outputs.critical_distance import CriticalDistance  # noqa: E402
 from suture_fem.scene import Scene  # noqa: E402
+from suture_fem.scene.load import parse_override  # noqa: E402
 
 BASE = ["geometry.dimension=3", "mesh.degree=1", 'output.quantities=["usum","seqv","eptoeqv"]',
         "output.critical_distance_mm=0", "output.critical_distance_layers=false", "loading.force_n=1.0",
@@ -48,11 +48,8 @@ def main() -> int:
     parser.add_argument("--layers", action="store_true")
     parser.add_argument("--overlaps", action="store_true", help="the package's cell overlaps first")
     args = parser.parse_args()
-    values = {}
-    for text in [*BASE, *args.sets, *(["output.critical_distance_layers=true"] if args.layers else [])]:
-        key, value = text.split("=", 1)
-        values[key] = tomllib.loads(f"v = {value}")["v"]
-    model = Model(Scene.from_values(values))
+    overrides = [*BASE, *args.sets, *(["output.critical_distance_layers=true"] if args.layers else [])]
+    model = Model(Scene.from_values(dict(parse_override(text) for text in overrides)))
     model.solve()
     setup = model.outputs.setup
     print(f"{model.results.run['dofs']:,} dofs, {model.results.run['cells']:,} tetrahedra", flush=True)

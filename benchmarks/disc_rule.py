@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -24,6 +23,7 @@ from suture_fem.outputs import disc  # noqa: E402
 from suture_fem.outputs.base import State  # noqa: E402
 from suture_fem.outputs.critical_distance import CriticalDistance  # noqa: E402
 from suture_fem.scene import Scene  # noqa: E402
+from suture_fem.scene.load import parse_override  # noqa: E402
 
 BASE = ["geometry.cones=1", "mesh.degree=2", 'output.quantities=["usum","seqv","eptoeqv"]',
         "output.critical_distance_mm=0", "output.critical_distance_layers=false", "loading.force_n=1.0",
@@ -36,11 +36,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--set", action="append", default=[], dest="sets")
     args = parser.parse_args()
-    values = {}
-    for text in [*BASE, *args.sets]:
-        key, value = text.split("=", 1)
-        values[key] = tomllib.loads(f"v = {value}")["v"]
-    model = Model(Scene.from_values(values))
+    model = Model(Scene.from_values(dict(parse_override(text) for text in [*BASE, *args.sets])))
     model.solve()
     setup = model.outputs.setup
     print(f"{model.results.run['dofs']:,} dofs, {model.results.run['cells']:,} cells", flush=True)

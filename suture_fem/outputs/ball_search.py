@@ -3,8 +3,9 @@
 The 3-D counterpart of the disc search of :mod:`suture_fem.outputs.disc`: the average over the ball's part
 in the region, on the half model's mirror image, from each cell's overlap volume with the ball
 (:mod:`suture_fem.outputs.ball_cells`; the point rule of :mod:`suture_fem.outputs.ball`, biased high at a
-sharp rim meshed finer than the ball, is kept as :meth:`BallRegion.rule_averages` for comparison). The field is constant per cell: P1 tetrahedra's stress and strain are; with P2 a cell's value is the
-mean of its quadrature-point values (a piecewise-constant view). The 2-D search's steps, adapted:
+sharp rim meshed finer than the ball, is kept as :meth:`BallRegion.rule_averages` for comparison). The
+field is constant per cell: P1 tetrahedra's stress and strain are; with P2 a cell's value is the mean of
+its quadrature-point values (a piecewise-constant view). The 2-D search's steps, adapted:
 
 * candidate centres of two kinds, up to :data:`CANDIDATES` of each, at least R apart: the region's largest
   cell values at the cells' centroids (:func:`top_cells`), and the local maxima of a coarse view of the ball

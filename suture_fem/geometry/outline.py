@@ -59,12 +59,8 @@ def _arc_shape(p: np.ndarray, c: np.ndarray, q: np.ndarray) -> tuple[float, floa
     return float(np.linalg.norm(p - c)), a0, sweep
 
 
-def _vertices(outline: list) -> np.ndarray:
-    """The outline as a polygon (arcs by 16 chords): for the inside test and the orientation."""
-    return _prepared(_key(outline))[1]
-
-
 def _polygon(outline: tuple) -> np.ndarray:
+    """The outline as a polygon (arcs by 16 chords): for the inside test and the orientation."""
     pts = []
     for kind, seg in outline:
         if kind == "line":
@@ -86,7 +82,7 @@ def _key(outline: list) -> tuple:
 def _prepared(outline: tuple) -> tuple[list, np.ndarray, bool, list]:
     """What :func:`project` needs of an outline that does not depend on the points, computed once per outline.
 
-    (each segment's (kind, points as arrays), the polygon of :func:`_vertices`, whether it runs
+    (each segment's (kind, points as arrays), the polygon of :func:`_polygon`, whether it runs
     counter-clockwise, each segment's curvature sign: +1 an arc of a convex part of the cone, -1 a
     concave one, 0 a line).
     """
@@ -99,7 +95,7 @@ def _prepared(outline: tuple) -> tuple[list, np.ndarray, bool, list]:
 
 def inside(points: np.ndarray, outline: list) -> np.ndarray:
     """Whether each point lies inside the closed outline (ray casting along +r)."""
-    return _inside(points, _vertices(outline))
+    return _inside(points, _prepared(_key(outline))[1])
 
 
 def _inside(points: np.ndarray, poly: np.ndarray) -> np.ndarray:

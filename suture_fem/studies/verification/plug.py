@@ -119,7 +119,7 @@ def plug_solve(case: PlugInTube, d: float, cells_r: int, degree: int = 2, penalt
     problem.friction = friction  # the Newton solver adds its terms and settles its bound
     options = newton_options(max_iterations=60)
     # atol 1e-9 of the slip force: the residual's round-off floor here is about 2e-10 of it (4.9e-14 N on the
-    # 4-cell rung, measured), where the line search can only fail; 1e-12 of it passed or failed by the CPU
+    # 4-cell rung, measured), where the line search can only fail (1e-12 of it failed there: DIVERGED_LINE_SEARCH)
     options = type(options).internal(**{**options.as_dict(), "atol": 1e-9 * case.slip_force(),
                                         "petsc_options": Params.of({"snes_linesearch_type": "bt", "snes_stol": 1e-11})})
     iterations = 0

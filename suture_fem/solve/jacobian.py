@@ -78,7 +78,7 @@ def _stiffened(terms: Any, u_vec: Any) -> Iterator[None]:
     phi = terms.search(u_vec)["phi"]
     trial = multiplier - kappa * phi
     terms.kappa = kappa * SETTLED_STIFFENING
-    terms.multiplier = np.where(trial > 0.0, trial + terms.kappa * phi, multiplier)
+    terms.multiplier = np.where(terms.hold.closed(trial), trial + terms.kappa * phi, multiplier)  # held: pressed
     try:
         yield
     finally:

@@ -66,6 +66,7 @@ from suture_fem.geometry import regions
 from suture_fem.geometry.outline import project
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
+from suture_fem.physics.effects.chatter import ChatterHold
 from suture_fem.physics.effects.contact import penalty_stiffness
 from suture_fem.physics.effects.friction import Aitken, SlipBound, global_dofs
 from suture_fem.physics.effects.pattern import ConeLayout, widen
@@ -115,6 +116,7 @@ class ConeContact(SlipBound):
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
         self.bound = np.zeros(self.pairs)
         self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
+        self.hold = ChatterHold(comm, self.pairs, self.augmented and model == "frictionless")  # nodes that swap
         self._state = state
         self._found: tuple[np.ndarray, dict[str, np.ndarray]] | None = None  # the last search's (input, places)
         self._layout = ConeLayout(self.dofs, self.cone, self.cone_dofs)
@@ -175,7 +177,7 @@ class ConeContact(SlipBound):
         trial = self.multiplier - self.kappa * phi
         if self.bilateral:
             return trial, np.ones(self.pairs, dtype=bool)
-        closed = trial > 0.0
+        closed = self.hold.closed(trial)
         return np.where(closed, trial, 0.0), closed
 
     def pressure(self) -> np.ndarray:
@@ -194,6 +196,10 @@ class ConeContact(SlipBound):
         if not self.augmented:
             return settled
         phi = self.search(self._state)["phi"]
+        swapped = self.hold.check(self.multiplier - self.kappa * phi, self.kappa * self.target)
+        if swapped:  # held nodes on the law's wrong side: solve again with them held the other way
+            log.debug("cones' contact: %d held nodes on the wrong side of the law, held the other way", swapped)
+            return False
         p, closed = self._pressure(phi)
         depth = np.where(closed, np.abs(phi), 0.0)  # pressed nodes off the surface, inside or (lambda > 0) outside
         worst = float(self.comm.allreduce(float(np.max(depth, initial=0.0)), op=MPI.MAX))
@@ -210,18 +216,24 @@ class ConeContact(SlipBound):
         super().start()
         self._uzawa = Aitken(self.comm, UZAWA_OMEGA_MAX)
 
+    def begin_solve(self, first: bool) -> None:
+        """A Newton solve starts (:meth:`ChatterHold.begin`; ``first``: of a load step)."""
+        self.hold.begin(first)
+
     def frozen(self) -> tuple[np.ndarray, ...]:
-        """Copies of the Coulomb bound and the multipliers: a state's part, kept with it."""
-        return self.bound.copy(), self.multiplier.copy()
+        """Copies of the Coulomb bound, the multipliers and the held nodes: a state's part, kept with it."""
+        return self.bound.copy(), self.multiplier.copy(), *self.hold.keep()
 
     def thaw(self, kept: tuple[np.ndarray, ...]) -> None:
         """Set what :meth:`frozen` returned."""
         self.bound, self.multiplier = kept[0].copy(), kept[1].copy()
+        self.hold.restore((kept[2], kept[3]))
 
     def reset(self) -> None:
-        """At rest: no pressure, no slip bound, no multiplier."""
+        """At rest: no pressure, no slip bound, no multiplier, no node held."""
         self.bound[:] = 0.0
         self.multiplier[:] = 0.0
+        self.hold.begin(first=True)
 
     def _law(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         th = np.tanh(g / self.slip)
@@ -238,7 +250,7 @@ class ConeContact(SlipBound):
         return float(self.comm.allreduce(float(np.sum(value))))
 
     def _gradient_hessian(self, u_vec: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2; the arcs' curvature term left out)."""
+        """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2)."""
         found = self.search(u_vec)
         p, closed = self._pressure(found["phi"])
         n, T = found["n"], found["T"]
@@ -270,7 +282,8 @@ class ConeContact(SlipBound):
         b.assemble()
 
     def add_jacobian(self, u_vec: Any, A: Any) -> None:
-        """Add the terms' Hessian (symmetric) to the full Jacobian ``A`` (assembled; collective)."""
+        """Add the terms' Hessian (symmetric) to ``A`` (assembled; collective); once per iterate: counts swaps."""
+        self.hold.iterate(self.multiplier - self.kappa * self.search(u_vec)["phi"])
         _, hess = self._gradient_hessian(u_vec)
         self._add_blocks(A, hess)
 

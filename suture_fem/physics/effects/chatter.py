@@ -17,7 +17,7 @@ the step, a held open one pressing by more than it is held pressed; the slack is
 pressure (kappa x ``effects.contact_penetration_mm``), so an accepted state has every node on the law's right
 side to within the target. Nodes that never swap are exactly as without it.
 
-Frictionless cones only: with Coulomb friction the hold stopped one cone's ramp at its first step, which
+Frictionless cones only (mu = 0): with Coulomb friction the hold stopped one cone's ramp at its first step, which
 reaches 4 N without it (docs/contact.md). Holding only the pressed stiffness in the Jacobian, the law left
 free, was tried too: a held node that truly opens is then moved by residual / kappa per iterate, and every
 first step stopped at its iteration limit.

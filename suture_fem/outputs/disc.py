@@ -33,11 +33,13 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from suture_fem.outputs.disc_cells import overlap_averages, overlap_climbs
 from suture_fem.outputs.disc_points import DiscPoints, Prepared
 from suture_fem.support import compat
 
 __all__ = ["CellField", "DiscMax", "DiscPoints", "coarse_starts", "disc_averages", "disc_rule",
-           "max_disc_average", "spread", "top_points"]
+           "max_disc_average", "overlap_averages", "spread",
+           "top_points"]
 
 #: Points of the disc rule: Gauss-Legendre points in the radius, equally spaced angles.
 RADIAL_POINTS, ANGULAR_POINTS = 6, 24
@@ -88,7 +90,8 @@ class CellField:
     def __init__(self, mesh: Any, cells: np.ndarray, xy: np.ndarray, values: np.ndarray, locate: Any = None,
                  discs: DiscPoints | None = None, coeffs: np.ndarray | None = None):
         self.discs = discs
-        self.comm = mesh.comm
+        self.mesh, self.comm = mesh, mesh.comm
+        self._vertex_values: np.ndarray | None = None  # the fit at the cells' vertices (outputs.disc_cells)
         self.cells = np.asarray(cells, dtype=np.int32)
         if discs is not None and discs.cells is not None:  # the same cells and points as the field before
             self.centre, self.row, system = discs.cells
@@ -199,8 +202,12 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
 
 
 def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ...], radius: float,
-                     allowed: Allowed | None = None, known: dict | None = None) -> DiscMax:
+                     allowed: Allowed | None = None, known: dict | None = None, exact: bool = True) -> DiscMax:
     """The largest disc average over centres inside the field's cells (and ``allowed``), by grid search (collective).
+
+    With ``exact`` (the default) the point rule's search only leads the way: from each climb's best centre a
+    pattern search on the average from the cells' overlaps with the disc
+    (:func:`~suture_fem.outputs.disc_cells.overlap_climbs`) gives the value and centre; without it, the rule's.
 
     ``starts``: candidate centres (k, 2), the same on every rank, or a tuple of such groups: the search
     climbs from the :data:`STARTS` of each group whose own disc averages are largest, skipping a start
@@ -222,14 +229,17 @@ def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ..
     for s in np.concatenate(chosen) if chosen else ():
         if all(np.hypot(*(s - c)) >= radius for c in climbs):
             climbs.append(s)
-    best_value, best = -np.inf, None
+    best_value, best, ends = -np.inf, None, []
     for s in climbs:
         centre = np.asarray(s, dtype=float)
         value = -np.inf
         for spacing, half in GRID_LEVELS:
             value, centre = _climb(field, centre, value, spacing * radius, half, radius, allowed, known)
+        ends.append(centre)
         if value > best_value:
             best_value, best = value, [float(c) for c in centre]
+    if exact:  # the overlaps' averages under their own keys: the rule's are keyed by integers
+        return DiscMax(*overlap_climbs(field, ends, radius, allowed, known.setdefault("overlap", {})))
     return DiscMax(best_value, best)
 
 

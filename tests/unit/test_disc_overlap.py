@@ -62,7 +62,8 @@ def test_a_triangle_s_part_in_the_disc_has_the_moments_of_the_clipped_polygon():
 
 def _clip(poly, tri):
     """The convex polygon ``poly`` clipped to the triangle (Sutherland-Hodgman, one edge at a time)."""
-    if np.cross(tri[1] - tri[0], tri[2] - tri[0]) < 0:
+    (ax, ay), (bx, by) = tri[1] - tri[0], tri[2] - tri[0]
+    if ax * by - ay * bx < 0:
         tri = tri[::-1]
     for i in range(3):
         a, b = tri[i], tri[(i + 1) % 3]

@@ -31,8 +31,8 @@ import numpy as np
 
 from suture_fem.outputs.ball_cells import near_cells, reach_groups
 
-#: Most (disc, cell) pairs whose weights are kept for later fields and states (28 bytes each).
-KEPT_PAIRS = 2_000_000
+#: Most (disc, cell) pairs whose weights are kept for later fields and states (28 bytes each: 28 MB per region).
+KEPT_PAIRS = 1_000_000
 #: The last stage's pattern search: the spacings of its 3 x 3 grids (fractions of R, each a multiple of the last;
 #: the finest is the point rule's search's finest) and the largest number of moves per spacing.
 LEVELS = (1 / 4, 1 / 8, 1 / 16, 1 / 32, 1 / 64)

@@ -14,6 +14,8 @@ Each rank sums its own cells; :class:`suture_fem.outputs.ball_search.BallRegion`
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 #: Points per cut cell (a power of 2: Sobol's balance; 64 left errors of 2-5 % in the searched maxima on solved meshes).
@@ -31,20 +33,33 @@ def _reference_points(count: int) -> np.ndarray:
     return np.column_stack([u[:, 0], u[:, 1] - u[:, 0], u[:, 2] - u[:, 1], 1.0 - u[:, 2]])
 
 
+def reach_groups(centroids: np.ndarray, reach: np.ndarray, radius: float) -> list[tuple[float, np.ndarray, Any]]:
+    """Cells grouped by reach (bounds R 2^k, at least R / 64): (bound, the group's cells, a k-d tree of centroids).
+
+    A cell of a group can meet a ball (disc) of radius R only if its centroid is within R + bound of the centre.
+    """
+    from scipy.spatial import cKDTree
+
+    bound = radius * 2.0 ** np.ceil(np.log2(np.maximum(reach / radius, 1.0 / 64)))
+    return [(b, cells, cKDTree(centroids[cells])) for b in np.unique(bound) for cells in [np.flatnonzero(bound == b)]]
+
+
+def near_cells(groups: list[tuple[float, np.ndarray, Any]], centre: np.ndarray, radius: float) -> list[np.ndarray]:
+    """Per group of :func:`reach_groups`, its cells that may meet the ball (disc) of ``radius`` at ``centre``."""
+    return [cells[np.asarray(tree.query_ball_point(centre, radius + bound), dtype=np.int64)]
+            for bound, cells, tree in groups]
+
+
 class CellOverlap:
     """Overlap volumes of balls of a radius with a set of tetrahedra ``vertices`` (n, 4, 3), this rank's."""
 
     def __init__(self, vertices: np.ndarray, radius: float, mirror: bool, samples: int = SAMPLES):
-        from scipy.spatial import cKDTree
-
         self.x, self.radius, self.mirror = np.asarray(vertices, dtype=float).reshape(-1, 4, 3), radius, mirror
         self.centroids = self.x.mean(axis=1)
         e = self.x[:, 1:] - self.x[:, :1]
         self.volume = np.abs(np.linalg.det(e)) / 6.0
         self.reach = np.linalg.norm(self.x - self.centroids[:, None], axis=2).max(axis=1)
-        bound = radius * 2.0 ** np.ceil(np.log2(np.maximum(self.reach / radius, 1.0 / 64)))
-        self.groups = [(b, np.flatnonzero(bound == b)) for b in np.unique(bound)]
-        self.trees = [cKDTree(self.centroids[cells]) for _, cells in self.groups]
+        self.groups = reach_groups(self.centroids, self.reach, radius)
         bary = _reference_points(samples)
         self.pairs_of_bary = (bary[:, :, None] * bary[:, None, :]).reshape(samples, 16).T.copy()  # (16, samples)
         self.kept: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
@@ -58,8 +73,7 @@ class CellOverlap:
         spheres = [centre] + ([np.asarray(centre) * [1.0, 1.0, -1.0]] if self.mirror else [])
         cells, vols = [], []
         for c in spheres:
-            for (bound, group), tree in zip(self.groups, self.trees):
-                near = group[np.asarray(tree.query_ball_point(c, self.radius + bound), dtype=np.int64)]
+            for near in near_cells(self.groups, c, self.radius):
                 if len(near):
                     v = self._volumes(np.asarray(c, dtype=float), near)
                     cells.append(near[v > 0].astype(np.int32))

@@ -20,6 +20,12 @@ over centres inside the region, started from the region's largest point values a
 a coarse view of the average over the whole region (:func:`coarse_starts`): fixed grids make it the same
 on every mesh and every partition, which a continuous optimiser's path would not be.
 
+The rule only leads the search: the search maximises over centres and so seeks out centres whose rule
+points fall on a rim's small hot cells (on the paper scene's sharp rims the rule read the near-cone stress
+average 23-52 % above the exact one). The rule's climbs stop at R/16, and from each one's best centre a
+pattern search on the exact average of the fitted field, from each triangle's overlap with the disc
+(:mod:`suture_fem.outputs.disc_cells`), gives the value and centre reported (:func:`max_disc_average`).
+
 Collective: every rank locates the rule's points in its owned cells, the values are reduced with MPI
 MAX (a point on an edge between two cells takes the larger value), and every rank then computes the
 same averages from the same array.
@@ -33,16 +39,19 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from suture_fem.outputs.disc_cells import overlap_averages, overlap_climbs
 from suture_fem.outputs.disc_points import DiscPoints, Prepared
 from suture_fem.support import compat
 
 __all__ = ["CellField", "DiscMax", "DiscPoints", "coarse_starts", "disc_averages", "disc_rule",
-           "max_disc_average", "spread", "top_points"]
+           "max_disc_average", "overlap_averages", "spread", "top_points"]
 
 #: Points of the disc rule: Gauss-Legendre points in the radius, equally spaced angles.
 RADIAL_POINTS, ANGULAR_POINTS = 6, 24
 #: Grid search: (spacing, half-width in spacings) of each level, as fractions of the radius.
 GRID_LEVELS = ((1 / 4, 4), (1 / 16, 4), (1 / 64, 4))
+#: How many of the levels the point rule climbs when the exact average ends the search (:func:`max_disc_average`).
+RULE_LEVELS_LEADING = 2
 #: Largest number of times a level's grid moves toward a better centre on its edge.
 MAX_MOVES = 20
 #: Largest point values of a region taken as candidate centres (at least R apart), and how many of them,
@@ -88,7 +97,8 @@ class CellField:
     def __init__(self, mesh: Any, cells: np.ndarray, xy: np.ndarray, values: np.ndarray, locate: Any = None,
                  discs: DiscPoints | None = None, coeffs: np.ndarray | None = None):
         self.discs = discs
-        self.comm = mesh.comm
+        self.mesh, self.comm = mesh, mesh.comm
+        self._vertex_values: np.ndarray | None = None  # the fit at the cells' vertices (outputs.disc_cells)
         self.cells = np.asarray(cells, dtype=np.int32)
         if discs is not None and discs.cells is not None:  # the same cells and points as the field before
             self.centre, self.row, system = discs.cells
@@ -199,8 +209,11 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
 
 
 def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ...], radius: float,
-                     allowed: Allowed | None = None, known: dict | None = None) -> DiscMax:
+                     allowed: Allowed | None = None, known: dict | None = None, exact: bool = True) -> DiscMax:
     """The largest disc average over centres inside the field's cells (and ``allowed``), by grid search (collective).
+
+    With ``exact`` (the default) the rule climbs :data:`RULE_LEVELS_LEADING` levels and from each climb's best
+    centre :func:`~suture_fem.outputs.disc_cells.overlap_climbs` gives the value and centre; without it, the rule's.
 
     ``starts``: candidate centres (k, 2), the same on every rank, or a tuple of such groups: the search
     climbs from the :data:`STARTS` of each group whose own disc averages are largest, skipping a start
@@ -222,14 +235,17 @@ def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ..
     for s in np.concatenate(chosen) if chosen else ():
         if all(np.hypot(*(s - c)) >= radius for c in climbs):
             climbs.append(s)
-    best_value, best = -np.inf, None
+    best_value, best, ends = -np.inf, None, []
     for s in climbs:
         centre = np.asarray(s, dtype=float)
         value = -np.inf
-        for spacing, half in GRID_LEVELS:
+        for spacing, half in GRID_LEVELS[:RULE_LEVELS_LEADING] if exact else GRID_LEVELS:
             value, centre = _climb(field, centre, value, spacing * radius, half, radius, allowed, known)
+        ends.append(centre)
         if value > best_value:
             best_value, best = value, [float(c) for c in centre]
+    if exact:  # the overlaps' averages under their own keys: the rule's are keyed by integers
+        return DiscMax(*overlap_climbs(field, ends, radius, allowed, known.setdefault("overlap", {})))
     return DiscMax(best_value, best)
 
 

@@ -101,6 +101,8 @@ class DiscPoints:
         self.batches: OrderedDict[bytes, tuple[Prepared, np.ndarray | None]] = OrderedDict()
         #: per coarse view (its key): its grid, where the field was, the 2 pi r weights and their window sums
         self.coarse: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
+        #: per radius, the cells' overlaps with discs (:class:`~suture_fem.outputs.disc_cells.DiscOverlap`)
+        self.overlaps: dict[float, Any] = {}
         self._bytes = 0
 
     def prepared_discs(self, centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray, row: np.ndarray,

@@ -25,7 +25,7 @@ import numpy as np
 from suture_fem.geometry.regions import MM, WHOLE_TISSUE
 from suture_fem.outputs.base import Setup, State
 from suture_fem.outputs.critical_distance import FIELDS, CriticalDistance
-from suture_fem.outputs.disc import disc_averages
+from suture_fem.outputs.disc import overlap_averages
 from suture_fem.physics.problem import Physics
 from suture_fem.scene.schema import OutputSection
 
@@ -53,7 +53,7 @@ class TissueMeasures:
     def at_centre(self, name: str, centre_mm: list[float]) -> float:
         """The disc average of the measure's field around a fixed centre (mm), at the current state (collective)."""
         field, _ = self.cd.field(State(self.setup), WHOLE_TISSUE, self.field_of[name])
-        return float(disc_averages(field, np.array([centre_mm], dtype=float) * MM, self.cd.radius)[0])
+        return float(overlap_averages(field, np.array([centre_mm], dtype=float) * MM, self.cd.radius)[0])
 
     def derivative(self, name: str, centre_mm: list[float], key: str, change: np.ndarray) -> float:
         """dS/dp along the state's derivative ``change`` (du/dp as the state's local array), p = ``key``.

@@ -1,0 +1,243 @@
+"""The disc average of a per-cell linear field from each triangle's overlap with the disc, weighted by 2 pi r.
+
+The 2-D counterpart of :mod:`suture_fem.outputs.ball_cells`. A field linear on each triangle is
+f = sum_k f_k phi_k (f_k its values at the vertices, phi_k the barycentric coordinates), and so is r, so
+
+    int_{T n D} f 2 pi r dA = sum_k f_k w_k,   w_k = 2 pi sum_l r_l int_{T n D} phi_k phi_l dA,
+
+with weights w_k that depend on the mesh, the disc and the cell alone: kept per disc, every later field and
+state only reads its vertex values there. The average over the disc's part in the region is
+sum f_k w_k / sum w_k over the region's cells. A triangle whose three vertices lie in the disc is inside it
+(the disc is convex): int_T phi_k phi_l dA = |T| (1 + delta_kl) / 12. A triangle farther from the centre
+than R plus its reach is outside. A triangle the circle may cut gets the moments (of 1, x, y, x^2, xy, y^2)
+of its part in the disc in closed form (:func:`cut_moments`): the signed sum over its edges AB of the
+part of the triangle (centre, A, B) in the disc, which is triangles with the centre as a vertex (the
+edge-midpoint rule, exact for quadratics) and circular sectors (closed-form trigonometric integrals). So
+the average of the fitted field is exact up to round-off, however the cells are cut; the point rule's is
+not (each of its points weighs a fixed share of the disc, whatever cell it falls in, and the search over
+centres seeks out the points that fall on a hot spot). Hand-written, with the ball's helpers (cells
+grouped by reach, scipy's k-d tree over their centroids: :mod:`suture_fem.outputs.ball_cells`).
+
+:func:`overlap_averages`: the averages (collective: each rank sums its own cells, the sums are reduced).
+:func:`overlap_climbs`: the search's last stage, a pattern search on these averages from the point rule's maxima.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from suture_fem.outputs.ball_cells import near_cells, reach_groups
+
+#: Most (disc, cell) pairs whose weights are kept for later fields and states (28 bytes each: 28 MB per region).
+KEPT_PAIRS = 1_000_000
+#: The last stage's pattern search: the spacings of its 3 x 3 grids (fractions of R, each a multiple of the last;
+#: the finest is the point rule's search's finest) and the largest number of moves per spacing.
+LEVELS = (1 / 4, 1 / 8, 1 / 16, 1 / 32, 1 / 64)
+MAX_MOVES = 20
+_STEPS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)  # index 4: no move
+
+
+class DiscOverlap:
+    """Vertex weights of discs of ``radius`` on triangles ``vertices`` (n, 3, 2) (r, z), this rank's cells."""
+
+    def __init__(self, vertices: np.ndarray, radius: float):
+        self.x, self.radius = np.asarray(vertices, dtype=float).reshape(-1, 3, 2), radius
+        self.centroids = self.x.mean(axis=1)
+        e = self.x[:, 1:] - self.x[:, :1]
+        self.area = 0.5 * np.abs(e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])
+        self.reach = np.linalg.norm(self.x - self.centroids[:, None], axis=2).max(axis=1)
+        self.groups = reach_groups(self.centroids, self.reach, radius) if len(self.x) else []
+        self.whole = (1.0 + np.eye(3)) / 12.0  # int_T phi_k phi_l dA / |T|
+        self.kept: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self.pairs = 0
+
+    def weights(self, centres: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per centre (k, 2): (cells, vertex weights (m, 3) with a positive sum) of its disc: see the module.
+
+        The centres not kept are computed together (one :func:`cut_moments` for all their cut cells).
+        """
+        centres = np.asarray(centres, dtype=float).reshape(-1, 2)
+        keys = [c.tobytes() for c in centres]
+        new = [i for i, key in enumerate(keys) if key not in self.kept]
+        found = {}
+        if new:
+            parts = [np.concatenate(near_cells(self.groups, centres[i], self.radius)) if self.groups
+                     else np.zeros(0, np.int64) for i in new]
+            counts = [len(p) for p in parts]
+            near = np.concatenate(parts)
+            w = self._weights(np.repeat(centres[new], counts, axis=0), near)
+            for i, (a, b) in zip(new, zip(np.cumsum(counts) - counts, np.cumsum(counts))):
+                keep = w[a:b].sum(axis=1) > 0
+                found[keys[i]] = out = near[a:b][keep].astype(np.int32), w[a:b][keep]
+                if self.pairs + len(out[0]) <= KEPT_PAIRS:
+                    self.kept[keys[i]], self.pairs = out, self.pairs + len(out[0])
+        return [found[key] if key in found else self.kept[key] for key in keys]
+
+    def _weights(self, c: np.ndarray, cells: np.ndarray) -> np.ndarray:
+        """w_k (n, 3) of the discs at c (n, 2) on cells (n,): whole, 0 outside, cut ones by :func:`cut_moments`."""
+        d = self.x[cells] - c[:, None, :]
+        inside = ((d**2).sum(axis=2) <= self.radius**2).all(axis=1)
+        apart = np.linalg.norm(self.centroids[cells] - c, axis=1) - self.reach[cells] > self.radius
+        w = np.zeros((len(cells), 3))
+        r = self.x[cells, :, 0]
+        w[inside] = np.einsum("kl,nl->nk", self.whole, r[inside]) * self.area[cells[inside], None]
+        cut = np.flatnonzero(~inside & ~apart)
+        if len(cut):
+            m0, m1, m2 = cut_moments(d[cut], self.radius)
+            ones = np.ones((len(cut), 3, 1))  # phi_k = alpha_k + beta_k . x: the inverse of [1, x_j] (rows j)
+            coef = np.linalg.inv(np.concatenate([ones, d[cut]], axis=2))  # (n, 3: alpha, beta_r, beta_z; 3: k)
+            r_c = c[cut, 0]
+            r_int = r_c * m0 + m1[:, 0]  # int r dA and int x r dA (x from the centre), r = c_r + x_r
+            x_r_int = r_c[:, None] * m1 + m2[:, :, 0]
+            w[cut] = coef[:, 0] * r_int[:, None] + np.einsum("nik,ni->nk", coef[:, 1:], x_r_int)
+        return 2.0 * np.pi * w
+
+    def sums(self, vertex_values: np.ndarray, centres: np.ndarray) -> np.ndarray:
+        """(m, 2): this rank's int f 2 pi r dA and int 2 pi r dA per disc, from the cells' vertex values (n, 3)."""
+        parts = self.weights(centres)
+        counts = np.array([len(cells) for cells, _ in parts])
+        out = np.zeros((len(centres), 2))
+        if counts.sum():
+            w = np.concatenate([w for _, w in parts])
+            per_cell = np.stack([np.einsum("nk,nk->n", vertex_values[np.concatenate([c for c, _ in parts])], w),
+                                 w.sum(axis=1)], axis=1)
+            has = counts > 0  # reduceat: each centre's cells, from its first (none: skipped)
+            out[has] = np.add.reduceat(per_cell, (np.cumsum(counts) - counts)[has], axis=0)
+        return out
+
+
+def cut_moments(x: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Moments of the part of each triangle x (n, 3, 2) (coordinates from the disc's centre) in the disc.
+
+    (int 1 dA (n,), int x dA (n, 2), int x x^T dA (n, 2, 2)), exact up to round-off: see the module.
+    """
+    a, e = x, np.roll(x, -1, axis=1) - x  # the edges A -> B = A + e
+    ee, ae, aa = (e * e).sum(-1), (a * e).sum(-1), (a * a).sum(-1) - radius**2
+    disc = ae**2 - ee * aa  # |A + t e|^2 = R^2: t = (-ae -+ sqrt(disc)) / ee
+    root = np.sqrt(np.maximum(disc, 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t1, t2 = (np.clip((-ae + s * root) / ee, 0.0, 1.0) for s in (-1.0, 1.0))
+    hit = (disc > 0) & (t2 > t1) & (ee > 0)
+    t1, t2 = np.where(hit, t1, 1.0), np.where(hit, t2, 1.0)  # no chord: the sector from A to B alone
+    p, q = a + t1[..., None] * e, a + t2[..., None] * e
+    m = [sum(parts) for parts in zip(_sector(a, p, radius), _triangle(p, q), _sector(q, a + e, radius))]
+    m = [part.sum(axis=1) for part in m]  # the three edges
+    e1, e2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+    sign = np.sign(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])  # a clockwise triangle's sums are negative
+    return m[0] * sign, m[1] * sign[:, None], m[2] * sign[:, None, None]
+
+
+def _sector(u: np.ndarray, v: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Signed moments of the disc's sector from the direction of u to that of v (..., 2) (under a half turn)."""
+    ta = np.arctan2(u[..., 1], u[..., 0])
+    span = np.arctan2(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0], (u * v).sum(-1))
+    tb = ta + span
+    sa, ca, sb, cb = np.sin(ta), np.cos(ta), np.sin(tb), np.cos(tb)
+    m0 = radius**2 / 2 * span
+    m1 = radius**3 / 3 * np.stack([sb - sa, ca - cb], axis=-1)
+    half = (np.sin(2 * tb) - np.sin(2 * ta)) / 4  # int cos^2 = span / 2 + half, int sin^2 = span / 2 - half
+    cross = (sb**2 - sa**2) / 2  # int sin cos
+    m2 = radius**4 / 4 * np.stack([np.stack([span / 2 + half, cross], -1), np.stack([cross, span / 2 - half], -1)], -2)
+    return m0, m1, m2
+
+
+def _triangle(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Signed moments of the triangles (0, p, q) (..., 2): the edge-midpoint rule, exact for quadratics."""
+    area = (p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0]) / 2
+    mids = np.stack([p / 2, q / 2, (p + q) / 2], axis=-2)
+    m2 = np.einsum("...ji,...jk->...ik", mids, mids) * (area / 3)[..., None, None]
+    return area, (p + q) / 3 * area[..., None], m2
+
+
+def field_overlap(field: Any, radius: float) -> tuple[DiscOverlap, np.ndarray]:
+    """A :class:`~suture_fem.outputs.disc.CellField`'s :class:`DiscOverlap` (kept with its ``discs``), vertex values."""
+    from suture_fem.support import compat
+
+    kept = field.discs.overlaps if field.discs is not None else field.__dict__.setdefault("_overlaps", {})
+    if radius not in kept:
+        mesh = field.mesh
+        vertices = mesh.geometry.x[:, :2][compat.geometry_dofs(mesh)[field.cells, :3]]
+        kept[radius] = DiscOverlap(vertices.reshape(-1, 3, 2), radius)
+    overlap = kept[radius]
+    if getattr(field, "_vertex_values", None) is None:  # a + b dr + c dz at each vertex, dr, dz from the cell's centre
+        d = overlap.x - field.centre[:, None, :]
+        a, b, c = (field.coeffs[:, i:i + 1] for i in range(3))
+        field._vertex_values = a + b * d[..., 0] + c * d[..., 1]
+    return overlap, field._vertex_values
+
+
+def overlap_averages(field: Any, centres: np.ndarray, radius: float,
+                     allowed: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+    """The 2 pi r-weighted average over each disc's part in the field's cells, from the cells' overlaps (collective).
+
+    As :func:`suture_fem.outputs.disc.disc_averages`: -inf for a centre no cell holds or ``allowed`` rules out.
+    """
+    centres = np.asarray(centres, dtype=float).reshape(-1, 2)
+    out = np.full(len(centres), -np.inf)
+    ok = allowed(centres) if allowed is not None else np.ones(len(centres), dtype=bool)
+    if not ok.any():  # centres and mask are the same on every rank: collective on all or on none
+        return out
+    c = centres[ok]
+    both = np.zeros((len(c), 3))
+    if len(field.cells):
+        overlap, values = field_overlap(field, radius)
+        both[:, :2] = overlap.sums(values, c)
+        idx, _ = field.locate(np.column_stack([c, np.zeros(len(c))]), keep=False)
+        both[idx, 2] = 1.0
+    if field.comm.size > 1:
+        from mpi4py import MPI
+
+        field.comm.Allreduce(MPI.IN_PLACE, both, op=MPI.SUM)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        avg = np.where(both[:, 1] > 0, both[:, 0] / both[:, 1], np.nan)
+    out[ok] = np.where((both[:, 2] > 0) & np.isfinite(avg), avg, -np.inf)
+    return out
+
+
+def overlap_climbs(field: Any, starts: list[np.ndarray], radius: float, allowed: Any,
+                   known: dict) -> tuple[float, list[float] | None]:
+    """The largest :func:`overlap_averages` found by a pattern search from each start: (value, centre) (collective).
+
+    Each start (the point rule's best centre of one of its climbs) is climbed through the :data:`LEVELS`: a
+    3 x 3 grid fixed in space (multiples of the finest spacing) moves to its best centre while that is better
+    and not its own centre. The climbs move in step (one batch of new averages per move of all of them; each
+    climb's moves are its own). ``known``: the averages at grid centres already computed (shared between
+    searches). A local search: the average of a field fitted per cell has small local maxima where the circle
+    crosses a rim's small cells (1 cone, P2 r1: a scan at R/32 found one 0.4 % above the value found, R/5
+    away; docs/three-d.md).
+    """
+    unit = radius * LEVELS[-1]
+    at = [np.round(np.asarray(s, dtype=float) / unit).astype(np.int64) for s in starts]
+    value = [-np.inf] * len(at)
+    for level in LEVELS:
+        step = int(round(level / LEVELS[-1]))
+        active = list(range(len(at)))
+        for _ in range(MAX_MOVES):
+            if not active:
+                break
+            grids = {}
+            for i in active:
+                grid = np.round(at[i] / step).astype(np.int64) * step + _STEPS * step
+                ok = allowed(grid * unit) if allowed is not None else np.ones(len(grid), dtype=bool)
+                grids[i] = (grid, [tuple(k) for k in grid.tolist()], ok)
+            new = {k: g[n] for g, keys, ok in grids.values() for n, k in enumerate(keys) if ok[n] and k not in known}
+            if new:  # unrestricted averages: both searches read them
+                known.update(zip(new, overlap_averages(field, np.array(list(new.values())) * unit, radius).tolist()))
+            still = []
+            for i in active:
+                grid, keys, ok = grids[i]
+                avgs = np.array([known[k] if ok[n] else -np.inf for n, k in enumerate(keys)])
+                j = int(np.argmax(avgs))
+                if avgs[j] > value[i]:
+                    value[i], at[i] = float(avgs[j]), grid[j]
+                    if j != 4:  # a neighbour was better: move on
+                        still.append(i)
+            active = still
+    best_value, best = -np.inf, None
+    for v, a in zip(value, at):  # the first of equal maxima, in the climbs' order
+        if v > best_value:
+            best_value, best = v, [float(c) for c in a * unit]
+    return best_value, best

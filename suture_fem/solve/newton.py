@@ -16,7 +16,7 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
   static scene with the plain displacement formulation is factorised by MUMPS LDL^T
   (``pc_type = cholesky``; half the memory of LU, about 15 % less time per factorisation on the
   paper scene, benchmarks/speed.py). Mixed pressure rows and stiffness-proportional damping are not
-  symmetric; those scenes, and every fallback solver, use LU (:func:`factor_type`).
+  symmetric; those scenes, and every fallback solver, use LU (:func:`~suture_fem.solve.linear.factor_type`).
 * Energy line search (degree 1): :func:`_potential_form`.
 * Inertia correction (``solver.inertia_correction``, with LDL^T): a Jacobian with negative pivots is
   shifted until it has none (:mod:`suture_fem.solve.inertia`): the Newton step of a positive definite
@@ -58,6 +58,7 @@ from suture_fem.scene.schema import SolverSection
 from suture_fem.solve import inertia, jacobian, linear
 from suture_fem.solve.guard import DomainGuard, Violation
 from suture_fem.solve.linearised import Linearised
+from suture_fem.solve.memo import IterateMemo
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
 from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale
@@ -111,6 +112,7 @@ class NewtonSolver(Linearised):
         self.outside_domain = 0
         self.inertia_shifts = 0  # Jacobians inertia.correct shifted in the last solve
         self.last_violation: Violation | None = None
+        self.memo = IterateMemo(problem.comm)
         self.options = solver_options
         self.linear_solver = solver_options.linear_solver
         self.line_search = str(solver_options.petsc_options.get("snes_linesearch_type", "bt"))
@@ -133,7 +135,7 @@ class NewtonSolver(Linearised):
             "snes_stol": INCREMENT_RTOL,
             "snes_max_funcs": 100000,
             "ksp_type": "preonly",
-            "pc_type": factor_type(self.physics, self.linear_solver),
+            "pc_type": linear.factor_type(self.physics, self.linear_solver),
             "pc_factor_mat_solver_type": self.linear_solver,
         }
         if self.linear_solver == "mumps":
@@ -185,15 +187,21 @@ class NewtonSolver(Linearised):
         return self.line_search
 
     def _trial_admissible(self, x: Any) -> bool:
-        """Expand the trial x into the state and check it against the domain guard (counted when outside)."""
+        """Expand the trial x into the state and check it against the domain guard (counted when outside).
+
+        The guard runs once per iterate of a solve (:mod:`suture_fem.solve.memo`); each call counts.
+        """
         self.reduction.expand(x)
-        t0 = time.perf_counter()
-        ok = self.guard.admissible()
-        self.timings.guard += time.perf_counter() - t0
-        if not ok:
+        memo = self.memo
+        if not memo.at(x) or memo.admissible is None:
+            t0 = time.perf_counter()
+            memo.admissible, memo.violation = self.guard.admissible(), self.guard.violation
+            self.timings.guard += time.perf_counter() - t0
+        self.guard.violation = memo.violation
+        if not memo.admissible:
             self.outside_domain += 1
-            self.last_violation = self.guard.violation
-        return ok
+            self.last_violation = memo.violation
+        return bool(memo.admissible)
 
     def _residual(self, snes: Any, x: Any, b: Any) -> None:
         signals.check(self.physics.comm)  # a signal (on any rank) ends the solve here, on every rank
@@ -201,9 +209,13 @@ class NewtonSolver(Linearised):
             if not compat.set_function_domain_error(snes):
                 b.set(OUTSIDE_DOMAIN_RESIDUAL)
             return
+        if self.memo.residual is not None:  # this iterate's, computed before in this solve
+            b.setArray(self.memo.residual)
+            return
         t0 = time.perf_counter()
         self._assemble_full_residual()
         self.reduction.T.multTranspose(self.b_full, b)
+        self.memo.keep_residual(b)
         self.timings.assembly += time.perf_counter() - t0
 
     def _assemble_full_residual(self) -> None:
@@ -218,7 +230,9 @@ class NewtonSolver(Linearised):
     def _objective(self, snes: Any, x: Any) -> float:
         if not self._trial_admissible(x):
             return OUTSIDE_DOMAIN_RESIDUAL
-        return self._potential()
+        if self.memo.potential is None:  # else this iterate's, computed before in this solve
+            self.memo.potential = self._potential()
+        return self.memo.potential
 
     def _potential(self) -> float:
         """The objective at the current state, the nodal terms' potential included (collective; timed as assembly)."""
@@ -279,13 +293,14 @@ class NewtonSolver(Linearised):
         a0 = self.timings.assembly + self.timings.guard
         self.snes.setTolerances(atol=min(self.snes.getTolerances()[1], BALANCE_TOL * force_scale(self.physics)))
         try:
-            self.snes.solve(None, self.x)
-            its = self.snes.getIterationNumber()
-            for _ in range(2):  # go on with the residual tests only (a line-search continuation may hand over)
-                mode = self.stops.finish(self.snes)
-                if mode is None:
-                    break
-                its += self._finish(full_steps=mode == "full steps")
+            with self.memo.open():  # the guard, potential and residual once per iterate (memo.py)
+                self.snes.solve(None, self.x)
+                its = self.snes.getIterationNumber()
+                for _ in range(2):  # go on with the residual tests only (a line-search continuation may hand over)
+                    mode = self.stops.finish(self.snes)
+                    if mode is None:
+                        break
+                    its += self._finish(full_steps=mode == "full steps")
         except PETSc.Error as exc:  # a factorisation error raised instead of reported
             if Interrupted.pending is not None:  # a signal inside a PETSc callback: not a solver failure
                 raise Interrupted.pending from None
@@ -351,20 +366,6 @@ class NewtonSolver(Linearised):
             if obj is not None:
                 obj.destroy()
         self.reduction.destroy()
-
-
-def factor_type(problem: Discrete, linear_solver: str) -> str:
-    """"cholesky" (MUMPS LDL^T) where the Jacobian is symmetric and MUMPS factorises it, else "lu".
-
-    Symmetric: a scene's static, plain displacement problem (the Hessian of an energy). Not: the mixed
-    formulation (its pressure rows are (U'(J) - p)/K0, not a derivative of the same potential), inertia
-    (stiffness-proportional damping), and problems without effects (the verification problems keep LU).
-    Coulomb friction's terms, at a frozen slip bound, are symmetric (:mod:`~suture_fem.physics.effects.friction`).
-    """
-    effects = getattr(problem, "effects", None)
-    if linear_solver != "mumps" or effects is None or effects.mixed or effects.inertia:
-        return "lu"
-    return "cholesky"
 
 
 def _potential_form(problem: Discrete) -> Any:

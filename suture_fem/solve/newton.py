@@ -17,13 +17,12 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
   (``pc_type = cholesky``; half the memory of LU, about 15 % less time per factorisation on the
   paper scene, benchmarks/speed.py). Mixed pressure rows and stiffness-proportional damping are not
   symmetric; those scenes, and every fallback solver, use LU (:func:`~suture_fem.solve.linear.factor_type`).
-* Energy line search (degree 1): :func:`_potential_form`.
+* Energy line search (degree 1): :func:`~suture_fem.solve.potential.potential_form`.
 * Inertia correction (``solver.inertia_correction``, with LDL^T): a Jacobian with negative pivots is
   shifted until it has none (:mod:`suture_fem.solve.inertia`): the Newton step of a positive definite
   model, where the indefinite one made the line search creep.
-* Linear solver fallback. When the LU factorisation fails, the next direct solver of
-  :data:`FALLBACK_ORDER` is tried for the same step (:meth:`NewtonSolver.next_linear_solver`), and the
-  switch is logged.
+* Linear solver fallback. When the LU factorisation fails, the next direct solver of :data:`FALLBACK_ORDER`
+  is tried for the same step (:meth:`NewtonSolver.next_linear_solver`), and the switch is logged.
 * Round-off floor. ``solver.atol`` is an absolute residual norm (N), but the residual of a stiff
   suture tied into soft tissue cannot be driven below the rounding of the state it is evaluated at:
   rounding every unknown by one unit in the last place changes R by about eps * ||A diag|x| ||_F
@@ -59,6 +58,7 @@ from suture_fem.solve import inertia, jacobian, linear
 from suture_fem.solve.guard import DomainGuard, Violation
 from suture_fem.solve.linearised import Linearised
 from suture_fem.solve.memo import IterateMemo
+from suture_fem.solve.potential import potential_form
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
 from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale
@@ -97,7 +97,7 @@ class NewtonSolver(Linearised):
         self.guard = guard if guard is not None else kept("guard", lambda: DomainGuard.of(problem))
         self.guard.violation = None
         timings.form_compilation += time.perf_counter() - t0
-        self.objective_form = kept("objective", lambda: _potential_form(problem))
+        self.objective_form = kept("objective", lambda: potential_form(problem))
         self.reduction = Reduction(problem, offset)
         self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
         self.A_full = jacobian.create(problem, self.J_form)
@@ -123,6 +123,33 @@ class NewtonSolver(Linearised):
         self.prefix = f"suture_{id(self)}_"
         self._configure()
 
+    @classmethod
+    def of(cls, physics: Any, solver_options: SolverSection, timings: Timings) -> NewtonSolver:
+        """The solver of a scene's physics (under displacement control the end's displacement is the offset)."""
+        return cls(physics, solver_options, timings, offset=physics.control.offset if physics.control else None)
+
+    def restart(self, timings: Timings) -> NewtonSolver:
+        """This solver, ready to follow a new ramp as one built for it would (a Model keeps its solver).
+
+        Reset: the timings, the floor, the tolerances, the fallbacks' line search and linear solver (a switched
+        one's factorisation dropped), the inertia correction's last shift. Kept: the matrices, SNES and the
+        factorisation's analysis of the unchanged pattern (measured the same bit for bit, docs/api.md).
+        """
+        self.timings, self.floor, self.outside_domain, self.inertia_shifts = timings, 0.0, 0, 0
+        self.last_violation, self.guard.violation, self.jacobian_current = None, None, False
+        ksp = self.snes.getKSP()
+        ksp.setAttr(inertia.LAST_SHIFT, None)
+        if self.linear_solver != self._configured:
+            ksp.getPC().reset()
+        self.linear_solver = self.options.linear_solver
+        self.line_search = str(self.options.petsc_options.get("snes_linesearch_type", "bt"))
+        self._configure()
+        return self
+
+    def release(self) -> None:
+        """Free the factorisation and its memory; the next Jacobian is analysed and factorised afresh."""
+        self.snes.getKSP().getPC().reset()
+
     def _configure(self) -> None:
         o = self.options
         opts = PETSc.Options()
@@ -142,7 +169,7 @@ class NewtonSolver(Linearised):
             base["mat_mumps_icntl_14"] = 200  # extra workspace: stiff suture + soft tissue fill-in
             if o.inertia_correction and self.physics.comm.size > 1:  # the root front's inertia too (inertia.py)
                 base["mat_mumps_icntl_13"] = 1
-        self.linear_solver = linear.configure(o, self, base)  # or a Krylov method with algebraic multigrid
+        self.linear_solver = self._configured = linear.configure(o, self, base)  # or a Krylov method with AMG
         base.update({str(k): v for k, v in o.petsc_options.items()})
         if base["pc_type"] == "cholesky":  # MUMPS then reads one triangle of A: declare the symmetry, for good
             self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
@@ -366,25 +393,6 @@ class NewtonSolver(Linearised):
             if obj is not None:
                 obj.destroy()
         self.reduction.destroy()
-
-
-def _potential_form(problem: Discrete) -> Any:
-    """The total potential energy (strain energy minus the pull's work) as SNES's objective, or None.
-
-    With an objective the backtracking line search asks for a decrease of the energy instead of the residual
-    norm (a poor merit function where the tissue is nearly incompressible). The potential is the residual's
-    only for a static, plain displacement scene without gravity (Coulomb friction adds its potential at its
-    frozen bound). Measured on the paper scene (benchmarks/speed.py): P1 76 -> 38 Newton iterations per
-    0-4 N ramp, same USUM to 1e-15; P2 61 -> 160 (the first step from rest fails and is cut three times),
-    so it is used at degree 1 only.
-    """
-    effects = getattr(problem, "effects", None)
-    if effects is None or effects.mixed or effects.inertia or effects.gravity or getattr(problem, "degree", 0) != 1:
-        return None
-    traction = getattr(problem, "applied_traction", problem.traction)  # with loading.force_scale
-    contact = getattr(problem, "contact_energy", None)  # a frictionless thread's penalty
-    energy = problem.energy if contact is None else problem.energy + contact
-    return compat.form(energy - traction * problem.end_displacement)
 
 
 def _reason_name(reason: int) -> str:

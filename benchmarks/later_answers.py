@@ -161,7 +161,7 @@ def main() -> int:
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     scales = [float(s) for s in args.scales.split(",")]
-    out = Path(args.out)
+    out = Path(args.out).resolve()  # the children run in their code's folder
     if args.child:
         print(json.dumps(child(args.degree, scales, out)))
         return 0

@@ -18,6 +18,8 @@ writing results.json when given a folder, and keeps the state of every reported 
 changes the keys that are dolfinx Constants of the forms (every material constant,
 ``materials.tissue_scale``, ``loading.force_scale``) and the ramp's ``loading.force_n`` and
 ``loading.report_forces_n``; any other key needs a new mesh or new forms and is refused in one line.
+The Newton solver (its matrices, SNES and, once the model is solved again, the factorisation's
+analysis) is built at the first solve and kept for the next ones.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from suture_fem.physics.effects.friction import slip_laws
 from suture_fem.physics.problem import Physics, build_physics
 from suture_fem.physics.three_d import check_three_d
 from suture_fem.scene import Scene
+from suture_fem.solve.newton import NewtonSolver
 from suture_fem.solve.records import Timings
 from suture_fem.solve.stepping import ramp
 from suture_fem.support import signals
@@ -126,6 +129,7 @@ class Model:
         self.results: Results | None = None
         self._reported: list[Snapshot] = []
         self._solves = 0
+        self._newton: NewtonSolver | None = None  # built at the first solve, kept for the next ones
         self._built = {key: float(c.value) for key, c in self.physics.parameters.items()}
 
     @property
@@ -164,12 +168,17 @@ class Model:
         try:
             _check_axial_support(self.scene)
             steps.open_fields()
-            history = ramp(self.physics, self.scene, steps.converged, clock.timings)
+            if self._newton is None:
+                self._newton = NewtonSolver.of(self.physics, self.scene.solver, clock.timings)
+            history = ramp(self.physics, self.scene, steps.converged, clock.timings, solver=self._newton)
             steps.close()
             signals.check(self.comm)  # a signal since the last step (on any rank): interrupted, not converged
         except BaseException as exc:
             steps.ended(exc)
             raise
+        finally:
+            if self._solves == 1 and self._newton is not None:  # a model solved once keeps no factorisation
+                self._newton.release()
         steps.finished(history)
         return steps.results
 

@@ -132,3 +132,17 @@ def _orthonormal(vectors: list[Any]) -> list[Any]:
             v.scale(1.0 / norm)
             out.append(v)
     return out
+
+
+def factor_type(problem: Any, linear_solver: str) -> str:
+    """"cholesky" (MUMPS LDL^T) where the Jacobian is symmetric and MUMPS factorises it, else "lu".
+
+    Symmetric: a scene's static, plain displacement problem (the Hessian of an energy). Not: the mixed
+    formulation (its pressure rows are (U'(J) - p)/K0, not a derivative of the same potential), inertia
+    (stiffness-proportional damping), and problems without effects (the verification problems keep LU).
+    Coulomb friction's terms, at a frozen slip bound, are symmetric (:mod:`~suture_fem.physics.effects.friction`).
+    """
+    effects = getattr(problem, "effects", None)
+    if linear_solver != "mumps" or effects is None or effects.mixed or effects.inertia:
+        return "lu"
+    return "cholesky"

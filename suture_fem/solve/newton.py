@@ -16,14 +16,13 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
   static scene with the plain displacement formulation is factorised by MUMPS LDL^T
   (``pc_type = cholesky``; half the memory of LU, about 15 % less time per factorisation on the
   paper scene, benchmarks/speed.py). Mixed pressure rows and stiffness-proportional damping are not
-  symmetric; those scenes, and every fallback solver, use LU (:func:`factor_type`).
-* Energy line search (degree 1): :func:`_potential_form`.
+  symmetric; those scenes, and every fallback solver, use LU (:func:`~suture_fem.solve.linear.factor_type`).
+* Energy line search (degree 1): :func:`~suture_fem.solve.potential.potential_form`.
 * Inertia correction (``solver.inertia_correction``, with LDL^T): a Jacobian with negative pivots is
   shifted until it has none (:mod:`suture_fem.solve.inertia`): the Newton step of a positive definite
   model, where the indefinite one made the line search creep.
-* Linear solver fallback. When the LU factorisation fails, the next direct solver of
-  :data:`FALLBACK_ORDER` is tried for the same step (:meth:`NewtonSolver.next_linear_solver`), and the
-  switch is logged.
+* Linear solver fallback. When the LU factorisation fails, the next direct solver of :data:`FALLBACK_ORDER`
+  is tried for the same step (:meth:`NewtonSolver.next_linear_solver`), and the switch is logged.
 * Round-off floor. ``solver.atol`` is an absolute residual norm (N), but the residual of a stiff
   suture tied into soft tissue cannot be driven below the rounding of the state it is evaluated at:
   rounding every unknown by one unit in the last place changes R by about eps * ||A diag|x| ||_F
@@ -58,6 +57,8 @@ from suture_fem.scene.schema import SolverSection
 from suture_fem.solve import inertia, jacobian, linear
 from suture_fem.solve.guard import DomainGuard, Violation
 from suture_fem.solve.linearised import Linearised
+from suture_fem.solve.memo import IterateMemo
+from suture_fem.solve.potential import potential_form
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
 from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale
@@ -96,7 +97,7 @@ class NewtonSolver(Linearised):
         self.guard = guard if guard is not None else kept("guard", lambda: DomainGuard.of(problem))
         self.guard.violation = None
         timings.form_compilation += time.perf_counter() - t0
-        self.objective_form = kept("objective", lambda: _potential_form(problem))
+        self.objective_form = kept("objective", lambda: potential_form(problem))
         self.reduction = Reduction(problem, offset)
         self.b_full = dolfinx.fem.petsc.create_vector(self.F_form)
         self.A_full = jacobian.create(problem, self.J_form)
@@ -111,6 +112,7 @@ class NewtonSolver(Linearised):
         self.outside_domain = 0
         self.inertia_shifts = 0  # Jacobians inertia.correct shifted in the last solve
         self.last_violation: Violation | None = None
+        self.memo = IterateMemo(problem.comm)
         self.options = solver_options
         self.linear_solver = solver_options.linear_solver
         self.line_search = str(solver_options.petsc_options.get("snes_linesearch_type", "bt"))
@@ -120,6 +122,33 @@ class NewtonSolver(Linearised):
         self.snes = PETSc.SNES().create(problem.comm)
         self.prefix = f"suture_{id(self)}_"
         self._configure()
+
+    @classmethod
+    def of(cls, physics: Any, solver_options: SolverSection, timings: Timings) -> NewtonSolver:
+        """The solver of a scene's physics (under displacement control the end's displacement is the offset)."""
+        return cls(physics, solver_options, timings, offset=physics.control.offset if physics.control else None)
+
+    def restart(self, timings: Timings) -> NewtonSolver:
+        """This solver, ready to follow a new ramp as one built for it would (a Model keeps its solver).
+
+        Reset: the timings, the floor, the tolerances, the fallbacks' line search and linear solver (a switched
+        one's factorisation dropped), the inertia correction's last shift. Kept: the matrices, SNES and the
+        factorisation's analysis of the unchanged pattern (measured the same bit for bit, docs/api.md).
+        """
+        self.timings, self.floor, self.outside_domain, self.inertia_shifts = timings, 0.0, 0, 0
+        self.last_violation, self.guard.violation, self.jacobian_current = None, None, False
+        ksp = self.snes.getKSP()
+        ksp.setAttr(inertia.LAST_SHIFT, None)
+        if self.linear_solver != self._configured:
+            ksp.getPC().reset()
+        self.linear_solver = self.options.linear_solver
+        self.line_search = str(self.options.petsc_options.get("snes_linesearch_type", "bt"))
+        self._configure()
+        return self
+
+    def release(self) -> None:
+        """Free the factorisation and its memory; the next Jacobian is analysed and factorised afresh."""
+        self.snes.getKSP().getPC().reset()
 
     def _configure(self) -> None:
         o = self.options
@@ -133,14 +162,14 @@ class NewtonSolver(Linearised):
             "snes_stol": INCREMENT_RTOL,
             "snes_max_funcs": 100000,
             "ksp_type": "preonly",
-            "pc_type": factor_type(self.physics, self.linear_solver),
+            "pc_type": linear.factor_type(self.physics, self.linear_solver),
             "pc_factor_mat_solver_type": self.linear_solver,
         }
         if self.linear_solver == "mumps":
             base["mat_mumps_icntl_14"] = 200  # extra workspace: stiff suture + soft tissue fill-in
             if o.inertia_correction and self.physics.comm.size > 1:  # the root front's inertia too (inertia.py)
                 base["mat_mumps_icntl_13"] = 1
-        self.linear_solver = linear.configure(o, self, base)  # or a Krylov method with algebraic multigrid
+        self.linear_solver = self._configured = linear.configure(o, self, base)  # or a Krylov method with AMG
         base.update({str(k): v for k, v in o.petsc_options.items()})
         if base["pc_type"] == "cholesky":  # MUMPS then reads one triangle of A: declare the symmetry, for good
             self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
@@ -185,15 +214,21 @@ class NewtonSolver(Linearised):
         return self.line_search
 
     def _trial_admissible(self, x: Any) -> bool:
-        """Expand the trial x into the state and check it against the domain guard (counted when outside)."""
+        """Expand the trial x into the state and check it against the domain guard (counted when outside).
+
+        The guard runs once per iterate of a solve (:mod:`suture_fem.solve.memo`); each call counts.
+        """
         self.reduction.expand(x)
-        t0 = time.perf_counter()
-        ok = self.guard.admissible()
-        self.timings.guard += time.perf_counter() - t0
-        if not ok:
+        memo = self.memo
+        if not memo.at(x) or memo.admissible is None:
+            t0 = time.perf_counter()
+            memo.admissible, memo.violation = self.guard.admissible(), self.guard.violation
+            self.timings.guard += time.perf_counter() - t0
+        self.guard.violation = memo.violation
+        if not memo.admissible:
             self.outside_domain += 1
-            self.last_violation = self.guard.violation
-        return ok
+            self.last_violation = memo.violation
+        return bool(memo.admissible)
 
     def _residual(self, snes: Any, x: Any, b: Any) -> None:
         signals.check(self.physics.comm)  # a signal (on any rank) ends the solve here, on every rank
@@ -201,9 +236,13 @@ class NewtonSolver(Linearised):
             if not compat.set_function_domain_error(snes):
                 b.set(OUTSIDE_DOMAIN_RESIDUAL)
             return
+        if self.memo.residual is not None:  # this iterate's, computed before in this solve
+            b.setArray(self.memo.residual)
+            return
         t0 = time.perf_counter()
         self._assemble_full_residual()
         self.reduction.T.multTranspose(self.b_full, b)
+        self.memo.keep_residual(b)
         self.timings.assembly += time.perf_counter() - t0
 
     def _assemble_full_residual(self) -> None:
@@ -218,7 +257,9 @@ class NewtonSolver(Linearised):
     def _objective(self, snes: Any, x: Any) -> float:
         if not self._trial_admissible(x):
             return OUTSIDE_DOMAIN_RESIDUAL
-        return self._potential()
+        if self.memo.potential is None:  # else this iterate's, computed before in this solve
+            self.memo.potential = self._potential()
+        return self.memo.potential
 
     def _potential(self) -> float:
         """The objective at the current state, the nodal terms' potential included (collective; timed as assembly)."""
@@ -279,13 +320,14 @@ class NewtonSolver(Linearised):
         a0 = self.timings.assembly + self.timings.guard
         self.snes.setTolerances(atol=min(self.snes.getTolerances()[1], BALANCE_TOL * force_scale(self.physics)))
         try:
-            self.snes.solve(None, self.x)
-            its = self.snes.getIterationNumber()
-            for _ in range(2):  # go on with the residual tests only (a line-search continuation may hand over)
-                mode = self.stops.finish(self.snes)
-                if mode is None:
-                    break
-                its += self._finish(full_steps=mode == "full steps")
+            with self.memo.open():  # the guard, potential and residual once per iterate (memo.py)
+                self.snes.solve(None, self.x)
+                its = self.snes.getIterationNumber()
+                for _ in range(2):  # go on with the residual tests only (a line-search continuation may hand over)
+                    mode = self.stops.finish(self.snes)
+                    if mode is None:
+                        break
+                    its += self._finish(full_steps=mode == "full steps")
         except PETSc.Error as exc:  # a factorisation error raised instead of reported
             if Interrupted.pending is not None:  # a signal inside a PETSc callback: not a solver failure
                 raise Interrupted.pending from None
@@ -351,39 +393,6 @@ class NewtonSolver(Linearised):
             if obj is not None:
                 obj.destroy()
         self.reduction.destroy()
-
-
-def factor_type(problem: Discrete, linear_solver: str) -> str:
-    """"cholesky" (MUMPS LDL^T) where the Jacobian is symmetric and MUMPS factorises it, else "lu".
-
-    Symmetric: a scene's static, plain displacement problem (the Hessian of an energy). Not: the mixed
-    formulation (its pressure rows are (U'(J) - p)/K0, not a derivative of the same potential), inertia
-    (stiffness-proportional damping), and problems without effects (the verification problems keep LU).
-    Coulomb friction's terms, at a frozen slip bound, are symmetric (:mod:`~suture_fem.physics.effects.friction`).
-    """
-    effects = getattr(problem, "effects", None)
-    if linear_solver != "mumps" or effects is None or effects.mixed or effects.inertia:
-        return "lu"
-    return "cholesky"
-
-
-def _potential_form(problem: Discrete) -> Any:
-    """The total potential energy (strain energy minus the pull's work) as SNES's objective, or None.
-
-    With an objective the backtracking line search asks for a decrease of the energy instead of the residual
-    norm (a poor merit function where the tissue is nearly incompressible). The potential is the residual's
-    only for a static, plain displacement scene without gravity (Coulomb friction adds its potential at its
-    frozen bound). Measured on the paper scene (benchmarks/speed.py): P1 76 -> 38 Newton iterations per
-    0-4 N ramp, same USUM to 1e-15; P2 61 -> 160 (the first step from rest fails and is cut three times),
-    so it is used at degree 1 only.
-    """
-    effects = getattr(problem, "effects", None)
-    if effects is None or effects.mixed or effects.inertia or effects.gravity or getattr(problem, "degree", 0) != 1:
-        return None
-    traction = getattr(problem, "applied_traction", problem.traction)  # with loading.force_scale
-    contact = getattr(problem, "contact_energy", None)  # a frictionless thread's penalty
-    energy = problem.energy if contact is None else problem.energy + contact
-    return compat.form(energy - traction * problem.end_displacement)
 
 
 def _reason_name(reason: int) -> str:

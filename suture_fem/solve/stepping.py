@@ -1,39 +1,36 @@
 """Adaptive stepping along the scene's load path (:mod:`suture_fem.solve.paths`), one Newton solve per step.
 
-* Adaptive load stepping. A step grows (by ``solver.grow``, up to ``solver.max_step``) when Newton
-  converges in at most ``solver.easy_iterations`` iterations, and is halved and retried from the last
-  converged state when it fails; below ``solver.min_step`` the run stops with a
-  :class:`~suture_fem.support.errors.SolveStopped` diagnosis that names the cause
-  (:mod:`suture_fem.solve.diagnosis`).
-* Milestones. Report points (and the end) are milestones the steps land on exactly; a step that would
-  stop short of one by less than :data:`MILESTONE_STRETCH` of a step goes straight to it (no
-  2.9 -> 3.0 N stub steps), never beyond ``solver.max_step``.
-* Futile stop. :data:`FUTILE_CUTBACKS` cutbacks in a row at the same load (the step 2^k times shorter
-  and still failing) stop the path there with the diagnosis, instead of halving on to ``solver.min_step``
-  at hundreds of Newton iterations; the diagnosis says what to change (:func:`advice`).
-* Leap (contact only). Where a contact state ends at a load (pressed tissue released), the next equilibrium
-  lies further on and shorter steps never reach it: before stopping, the path tries one step to the next
-  milestone (report point or end) from there; :data:`LEAPS` at most, counted in results.json.
-* Predictor. Each trial starts from an extrapolation of the converged path: on a path whose loads are
-  linear in s (the pull, the weight) from the quadratic through the last two converged states with the
-  tangent du/ds at the last one (:meth:`~suture_fem.solve.newton.NewtonSolver.tangent`: one
-  back-substitution with the factorisation Newton just used), or from the tangent alone, or (time
-  histories) from the line through the last two states, or from the last converged state: whichever is
-  closest to balance under the trial's loads (:meth:`~suture_fem.solve.newton.NewtonSolver.merit`: the
-  potential where the line search uses it, else the residual norm; inadmissible states never win).
-  Measured on the paper scene at P1, 0-4 N, Newton iterations per ramp (failed attempts included): the
-  line through two states 45 (37 once :mod:`~suture_fem.solve.stopping` finished round-off stalls with
-  full steps), the quadratic with the tangent, first admissible, 41 (it overshoots early in the ramp),
+* Adaptive load stepping. A step grows (by ``solver.grow``, up to ``solver.max_step``) when Newton converges in at most
+  ``solver.easy_iterations`` iterations, and is halved and retried from the last converged state when it fails; below
+  ``solver.min_step`` the run stops with a :class:`~suture_fem.support.errors.SolveStopped` diagnosis that names the
+  cause (:mod:`suture_fem.solve.diagnosis`).
+* Milestones. Report points (and the end) are milestones the steps land on exactly; a step that would stop short of one
+  by less than :data:`MILESTONE_STRETCH` of a step goes straight to it (no 2.9 -> 3.0 N stub steps), never beyond
+  ``solver.max_step``.
+* Futile stop. :data:`FUTILE_CUTBACKS` cutbacks in a row at the same load (the step 2^k times shorter and still failing)
+  stop the path there with the diagnosis, instead of halving on to ``solver.min_step`` at hundreds of Newton
+  iterations; the diagnosis says what to change (:func:`advice`).
+* Leap (contact only). Where a contact state ends at a load (pressed tissue released), the next equilibrium lies further
+  on and shorter steps never reach it: before stopping, the path tries one step to the next milestone (report point or
+  end) from there; :data:`LEAPS` at most, counted in results.json.
+* Predictor. Each trial starts from an extrapolation of the converged path: on a path whose loads are linear in s (the
+  pull, the weight) from the quadratic through the last two converged states with the tangent du/ds at the last one
+  (:meth:`~suture_fem.solve.newton.NewtonSolver.tangent`: one back-substitution with the factorisation Newton just
+  used), or from the tangent alone, or (time histories) from the line through the last two states, or from the last
+  converged state: whichever is closest to balance under the trial's loads
+  (:meth:`~suture_fem.solve.newton.NewtonSolver.merit`: the potential where the line search uses it, else the residual
+  norm; inadmissible states never win). Measured on the paper scene at P1, 0-4 N, Newton iterations per ramp (failed
+  attempts included): the line through two states 45 (37 once :mod:`~suture_fem.solve.stopping` finished round-off
+  stalls with full steps), the quadratic with the tangent, first admissible, 41 (it overshoots early in the ramp),
   chosen by merit 33, with the energy line search's hand-over 30; P2 63 -> 50 (benchmarks/newton_counts.py).
 * Physical limit. A converged state is checked against ``solver.gent_limit_fraction``
   (:meth:`~suture_fem.solve.guard.DomainGuard.limit_reached`) and rejected like a failed step there.
-* Warm starts. A caller that has solved the same scene at nearby parameters (a calibration's previous
-  evaluation) may hand :func:`ramp` a start state per report force (``warm``); the step then goes
-  straight to that force and the start competes with the predictions above by merit. A Newton failure
-  from it costs that attempt only: the path goes on with its usual steps, no cutback counted.
-* Fallbacks before a cutback. A failed solve first switches the linear solver, if the factorisation
-  failed, then retries once with the other line search (:mod:`suture_fem.solve.newton`); only then is
-  the step cut.
+* Warm starts. A caller that has solved the same scene at nearby parameters (a calibration's previous evaluation) may
+  hand :func:`ramp` a start state per report force (``warm``); the step then goes straight to that force and the start
+  competes with the predictions above by merit. A Newton failure from it costs that attempt only: the path goes on
+  with its usual steps, no cutback counted.
+* Fallbacks before a cutback. A failed solve first switches the linear solver, if the factorisation failed, then retries
+  once with the other line search (:mod:`suture_fem.solve.newton`); only then is the step cut.
 """
 
 from __future__ import annotations
@@ -79,20 +76,23 @@ def ramp(
     timings: Timings | None = None,
     with_solver: bool = False,
     warm: Callable[[float], Any] | None = None,
+    solver: NewtonSolver | None = None,
 ) -> RampResult:
     """Follow the scene's load path: gravity preload (if called), then the load ramp or the time history.
 
     ``on_converged(force_n, is_report_point)`` is called after every converged step of the pull
     (with inertia also ``time_s=t``; with ``with_solver`` also ``solver=`` the NewtonSolver, whose
     :meth:`~suture_fem.solve.newton.NewtonSolver.solve_reduced` reuses the step's factorisation); report
-    points (``loading.report_forces_n``, the peak and, with
-    inertia, the end of the hold) are always hit exactly. ``warm(force_n)``: a start state for a report
-    force of the quasi-static pull (the state's local array, ghosts included) or None (module docstring).
-    Raises SolveStopped (with every converged step already handed to on_converged) when it cannot go on.
+    points (``loading.report_forces_n``, the peak and, with inertia, the end of the hold) are always hit
+    exactly. ``warm(force_n)``: a start state for a report force of the quasi-static pull (the state's
+    local array, ghosts included) or None (module docstring). ``solver``: a NewtonSolver of this physics
+    and ``scene.solver`` kept by the caller (a Model), restarted here and left alive; without it one is
+    built and freed. Raises SolveStopped (with every converged step already handed to on_converged) when
+    it cannot go on.
     """
     result = RampResult(timings=timings or Timings())
-    control = physics.control  # displacement control: the end's displacement is the reduction's offset
-    newton = NewtonSolver(physics, scene.solver, result.timings, offset=control.offset if control else None)
+    newton = (solver.restart(result.timings) if solver is not None
+              else NewtonSolver.of(physics, scene.solver, result.timings))
     result.linear_solver = newton.linear_solver
     result.unknowns = newton.reduction.n_global
     fraction = scene.solver.gent_limit_fraction
@@ -100,14 +100,15 @@ def ramp(
         if physics.gravity_factor is not None:
             _Stepper(GravityPreload(physics, scene), newton, result, on_converged, fraction, with_solver).run()
         main = (TimeHistory(physics, scene) if physics.dynamics is not None
-                else DisplacementRamp(physics, scene) if control is not None else LoadRamp(physics, scene))
+                else DisplacementRamp(physics, scene) if physics.control is not None else LoadRamp(physics, scene))
         if physics.dynamics is not None:
             physics.dynamics.start_from(physics.state)
         stepper = _Stepper(main, newton, result, on_converged, fraction, with_solver)
         stepper.warm = warm if isinstance(main, LoadRamp) else None
         stepper.run()
     finally:
-        newton.destroy()
+        if solver is None:
+            newton.destroy()
     return result
 
 

@@ -90,11 +90,11 @@ def test_a_second_solve_after_set_is_a_fresh_model_at_those_values(model, first)
     assert set(CHANGED) <= set(settable) and not any(k.startswith(("geometry.", "mesh.")) for k in settable)
     second = model.set(CHANGED).solve().to_dict()
     fresh = Model(BASE.with_values(CHANGED)).solve().to_dict()
-    close(second, fresh)
+    close(second, fresh, rel=0.0)  # the kept Newton solver (its factorisation's analysis too): the same bits
     assert second["scene"] == BASE.with_values(CHANGED).as_dict()
     assert abs(second["usum_mm"] - first["usum_mm"]) > 1e-3 * first["usum_mm"]  # the values did change
     model.set({k: BASE.get(k) for k in CHANGED})
-    close(model.solve().to_dict(), first)  # and back
+    close(model.solve().to_dict(), first, rel=0.0)  # and back
 
 
 @pytest.mark.parametrize("values, words", [

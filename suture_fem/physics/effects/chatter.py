@@ -88,6 +88,7 @@ class ChatterHold:
         return self.held.copy(), self.state.copy()
 
     def restore(self, kept: tuple[np.ndarray, np.ndarray]) -> None:
-        """Set what :meth:`keep` returned."""
+        """Set what :meth:`keep` returned (a stored state, evaluated with its own law; nothing counted)."""
         self.held, self.state = kept[0].copy(), kept[1].copy()
-        self._carry = None
+        self._carry, self._last = None, None
+        self._switches[:] = 0

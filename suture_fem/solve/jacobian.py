@@ -50,21 +50,25 @@ def follows_state(problem: Any) -> bool:
     return any(getattr(terms, "augmented", False) for terms in nodal_terms(problem))
 
 
-def assemble(problem: Any, J_form: Any, A: Any, settled: bool = False) -> None:
+def assemble(problem: Any, J_form: Any, A: Any, settled: bool = False) -> bool:
     """A = dR/du at ``problem``'s current state: the form, then every nodal term (collective).
 
     ``settled``: the augmented Lagrangian's pressed nodes held on their cones (the module docstring).
+    Returns whether a nodal term changed its law while adding its part (the cones' swapping nodes held,
+    :mod:`~suture_fem.physics.effects.chatter`): the residual and potential at this state change with it.
     """
     A.zeroEntries()
     dolfinx.fem.petsc.assemble_matrix(A, J_form)
     A.assemble()
     u_vec = compat.function_vector(problem.state)
+    changed = False
     for terms in nodal_terms(problem):
         if settled and getattr(terms, "augmented", False):
             with _stiffened(terms, u_vec):
-                terms.add_jacobian(u_vec, A)
+                changed |= bool(terms.add_jacobian(u_vec, A))
         else:
-            terms.add_jacobian(u_vec, A)
+            changed |= bool(terms.add_jacobian(u_vec, A))
+    return changed
 
 
 @contextmanager

@@ -51,13 +51,13 @@ class IterateMemo:
     @contextmanager
     def open(self) -> Iterator[None]:
         """Keep and recognise iterates inside this block only (one Newton solve); forget them when it ends."""
-        self._forget()
+        self.forget()
         self._open = True
         try:
             yield
         finally:
             self._open = False
-            self._forget()
+            self.forget()
 
     def at(self, x: Any) -> bool:
         """Whether x (a PETSc Vec) is, bit for bit, the iterate kept (collective); if not, keep x instead.
@@ -72,7 +72,7 @@ class IterateMemo:
         if self.comm.size > 1:
             same = bool(self.comm.allreduce(same, op=MPI.LAND))
         if not same:
-            self._forget()
+            self.forget()
             self._key = local.copy()
         return same
 
@@ -81,6 +81,7 @@ class IterateMemo:
         if self._open and self._key is not None:
             self.residual = b.getArray(readonly=True).copy()
 
-    def _forget(self) -> None:
+    def forget(self) -> None:
+        """Nothing kept: the next iterate is evaluated afresh (also when a nodal law changed within the solve)."""
         self._key = None
         self.admissible, self.violation, self.potential, self.residual = None, None, None, None

@@ -9,9 +9,8 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
 * Admissible domain (:mod:`suture_fem.solve.guard`). Before a residual is assembled the state is
   checked to be inside every material's domain. A trial state outside it is never evaluated into NaN:
   where petsc4py offers ``SNESSetFunctionDomainError`` it is called; on petsc4py 3.18 (which has not)
-  the residual is returned as a huge finite vector (:data:`OUTSIDE_DOMAIN_RESIDUAL`), so the
-  backtracking line search rejects the trial and shortens the step, and a Newton solve that cannot
-  recover fails cleanly.
+  the residual is returned as a huge finite vector (:data:`OUTSIDE_DOMAIN_RESIDUAL`), so the backtracking
+  line search rejects the trial and shortens the step, and a Newton solve that cannot recover fails cleanly.
 * Symmetric factorisation. The Jacobian of a hyperelastic energy is symmetric, and so is T^T A T: a
   static scene with the plain displacement formulation is factorised by MUMPS LDL^T
   (``pc_type = cholesky``; half the memory of LU, about 15 % less time per factorisation on the
@@ -271,7 +270,8 @@ class NewtonSolver(Linearised):
         return value
 
     def _assemble_full_jacobian(self) -> None:
-        jacobian.assemble(self.physics, self.J_form, self.A_full)  # the forms' and the nodal terms' (shared)
+        if jacobian.assemble(self.physics, self.J_form, self.A_full):  # a nodal term's law changed: see memo.py
+            self.memo.forget()
 
     def _jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         self.jacobian_current = True  # the factorisation SNES makes next is A at this iterate

@@ -61,17 +61,23 @@ class ChatterHold:
         """The pressed pairs: the held ones' status, else where lambda - kappa phi is positive."""
         return np.where(self.held, self.state, trial > 0.0)
 
-    def iterate(self, trial: np.ndarray) -> None:
-        """A Newton iterate's Jacobian: count each free pair's status changes; hold the pairs that swap."""
+    def iterate(self, trial: np.ndarray) -> bool:
+        """A Newton iterate's Jacobian: count each free pair's status changes, hold the pairs that swap.
+
+        Returns whether a pair was held now (on any rank; collective): the law at this iterate changed.
+        """
         if not self.possible:
-            return
+            return False
         free = trial > 0.0
+        new = np.zeros_like(free)
         if self._last is not None:
             self._switches += (free != self._last) & ~self.held
             new = (self._switches >= SWITCHES) & ~self.held
             self.held |= new
             self.state[new] = True
         self._last = free
+        return bool(self.comm.allreduce(int(np.count_nonzero(new))))
+
 
     def check(self, trial: np.ndarray, slack: float) -> int:
         """At a converged state: the held pairs on the law's wrong side by more than ``slack`` (Pa; all ranks).

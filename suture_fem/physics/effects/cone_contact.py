@@ -198,7 +198,6 @@ class ConeContact(SlipBound):
         phi = self.search(self._state)["phi"]
         swapped = self.hold.check(self.multiplier - self.kappa * phi, self.kappa * self.target)
         if swapped:  # held nodes on the law's wrong side: solve again with them held the other way
-            log.debug("cones' contact: %d held nodes on the wrong side of the law, held the other way", swapped)
             return False
         p, closed = self._pressure(phi)
         depth = np.where(closed, np.abs(phi), 0.0)  # pressed nodes off the surface, inside or (lambda > 0) outside
@@ -281,11 +280,12 @@ class ConeContact(SlipBound):
                     addv=PETSc.InsertMode.ADD_VALUES)
         b.assemble()
 
-    def add_jacobian(self, u_vec: Any, A: Any) -> None:
-        """Add the terms' Hessian (symmetric) to ``A`` (assembled; collective); once per iterate: counts swaps."""
-        self.hold.iterate(self.multiplier - self.kappa * self.search(u_vec)["phi"])
+    def add_jacobian(self, u_vec: Any, A: Any) -> bool:
+        """Add the terms' Hessian to ``A`` (assembled; collective); once per iterate: True when it held a node."""
+        held = self.hold.iterate(self.multiplier - self.kappa * self.search(u_vec)["phi"])
         _, hess = self._gradient_hessian(u_vec)
         self._add_blocks(A, hess)
+        return held
 
     def _add_blocks(self, A: Any, hess: np.ndarray) -> None:
         """K_aa = H, K_ab = -H[:, z] alpha, K_bb = sum_a H_zz alpha alpha^T for every pair's H (alpha = 1 / n_b)."""

@@ -93,14 +93,16 @@ class ConeContact(SlipBound):
     """
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
-                 slip_m: float, target_m: float | None = None):
+                 slip_m: float, target_m: float | None = None, convexified: bool = False):
         """``state``: the state's PETSc vector; ``pairs``: :func:`cone_pairs`'s arrays.
 
         ``target_m``: the augmented Lagrangian's largest penetration (m); None: the pure penalty.
+        ``convexified``: the unilateral Jacobian leaves out the distance's curvature where it softens (P2).
         """
         self.comm, self.kappa, self.model = comm, float(kappa), model
         self.augmented, self.target = target_m is not None, float(target_m or 0.0)
         self.bilateral = model == "sliding"
+        self.convexified = convexified and not self.bilateral
         self.mu = float(mu) if model == "coulomb" else 0.0
         self.slip = float(slip_m)
         self.nodes, self.dofs, self.X = pairs["nodes"], pairs["dofs"], pairs["X"]
@@ -138,7 +140,7 @@ class ConeContact(SlipBound):
         target = section.contact_penetration_mm * regions.MM if augmented(section) else None
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
-                      target)
+                      target, convexified=getattr(physics, "degree", 1) != 1)
         physics.notes.setdefault("interfaces", {}).update(contact.notes())
         return contact
 
@@ -238,14 +240,20 @@ class ConeContact(SlipBound):
         return float(self.comm.allreduce(float(np.sum(value))))
 
     def _gradient_hessian(self, u_vec: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2; the arcs' curvature term left out)."""
+        """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2; the friction's turning tangent left out).
+
+        Convexified (P2, unilateral): -w p d2(phi) is kept only where it stiffens; beside a convex arc or
+        corner it is a negative tangential stiffness -w p / R, which at P2 sent Newton down a direction of
+        negative curvature until a trial state inverted (docs/contact.md, "P2 cones").
+        """
         found = self.search(u_vec)
         p, closed = self._pressure(found["phi"])
         n, T = found["n"], found["T"]
         grad = -(self.weight * p)[:, None] * n
         # d2E = kappa w n n^T (closed) - w p d2(phi), d2(phi) = curvature (I - n n^T) (0 beside a straight segment)
         nn = n[:, :, None] * n[:, None, :]
-        bend = (-self.weight * p * found["curvature"])[:, None, None] * (np.eye(2)[None, :, :] - nn)
+        curvature = np.minimum(found["curvature"], 0.0) if self.convexified else found["curvature"]
+        bend = (-self.weight * p * curvature)[:, None, None] * (np.eye(2)[None, :, :] - nn)
         hess = (self.kappa * self.weight * closed)[:, None, None] * nn + bend
         if self.mu > 0.0:
             t, dt = self._law(found["g"])
@@ -313,6 +321,8 @@ class ConeContact(SlipBound):
                                "cone_contact_method": "augmented" if self.augmented else "penalty"}
         if self.augmented:
             out["contact_penetration_target_mm"] = self.target / regions.MM
+        if self.convexified:
+            out["cone_contact_jacobian"] = "convexified: the distance's softening curvature left out (P2)"
         if self.model == "coulomb":
             out.update({"cone_friction_coefficient": self.mu, "friction_slip_mm": self.slip / regions.MM})
         return out

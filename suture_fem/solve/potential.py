@@ -15,10 +15,14 @@ def potential_form(problem: Any) -> Any:
     only for a static, plain displacement scene without gravity (Coulomb friction adds its potential at its
     frozen bound). Measured on the paper scene (benchmarks/speed.py): P1 76 -> 38 Newton iterations per
     0-4 N ramp, same USUM to 1e-15; P2 61 -> 160 (the first step from rest fails and is cut three times),
-    so it is used at degree 1 only.
+    so it is used at degree 1 only, and at P2 where the cones are in contact: there the residual norm's
+    line search took a tenth of each Newton step and the first step from rest never converged
+    (docs/contact.md, "P2 cones").
     """
     effects = getattr(problem, "effects", None)
-    if effects is None or effects.mixed or effects.inertia or effects.gravity or getattr(problem, "degree", 0) != 1:
+    if effects is None or effects.mixed or effects.inertia or effects.gravity:
+        return None
+    if getattr(problem, "degree", 0) != 1 and getattr(problem, "cone_contact", None) is None:
         return None
     traction = getattr(problem, "applied_traction", problem.traction)  # with loading.force_scale
     contact = getattr(problem, "contact_energy", None)  # a frictionless thread's penalty

@@ -384,8 +384,8 @@ def advice(physics: Physics, cause: StopCause) -> str:
     effects = getattr(physics, "effects", None)
     stuck = cause in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT)
     if effects is not None and effects.cone_contact and stuck and getattr(physics, "degree", 1) == 2:
-        return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 the tissue "
-                "tied at the cone's junction with the thread distorts within the first 0.3 N (docs/contact.md)")
+        return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
+                "cone reaches about 1 N, four stop in their first step (docs/contact.md: P2 cones)")
     if effects is not None and effects.unilateral_thread and cause in (StopCause.NEWTON_DIVERGENCE,
                                                                       StopCause.INVERTED_ELEMENT):
         if effects.frictional_thread:

@@ -144,6 +144,33 @@ def test_the_lift_grows_from_tied_through_coulomb_to_frictionless_with_the_rigid
     assert cone["tied"] > cone["coulomb"] > cone["frictionless"] > 0.0  # friction lets the cone carry more
 
 
+@pytest.mark.long  # one P2 ramp to 1 N, 24 s; benchmarks/long_tests.py
+def test_a_sliding_cone_at_p2_reaches_the_pull_with_shares_summing_to_it(tmp_path_factory, sliding):
+    """P2 cones run on the energy's line search (the residual norm's stopped the first step, docs/contact.md)."""
+    p2 = _run(tmp_path_factory, "sliding_p2", _cones("sliding", "mesh.degree=2"))
+    rec, p1 = p2["at_forces"][-1], sliding["at_forces"][-1]
+    assert p2["scene"]["mesh"]["degree"] == 2 and rec["force_n"] == pytest.approx(1.0)
+    assert sum(rec["load_share_n"].values()) == pytest.approx(rec["force_n"], rel=1e-9)
+    assert rec["free_residual_norm_n"] <= 1e-6 * rec["force_n"]
+    assert rec["interface"]["cone_contact"]["cones"]["cone_1"]["slip_max_mm"] > 0.1  # the tissue slid on the cone
+    # the same scene at P1: the lift within a few per cent (P2 locks less, so it lifts more)
+    assert p1["usum_mm"] <= rec["usum_mm"] <= 1.1 * p1["usum_mm"]
+
+
+@pytest.mark.long  # one P2 ramp to 0.25 N, 17 s; benchmarks/long_tests.py
+def test_a_frictionless_cone_at_p2_converges_with_shares_summing_to_the_pull(tmp_path_factory):
+    """P2 unilateral cones: the energy's line search and the convexified Jacobian (docs/contact.md, "P2 cones")."""
+    res = _run(tmp_path_factory, "frictionless_p2", _cones("frictionless", "mesh.degree=2", "loading.force_n=0.25"))
+    rec = res["at_forces"][-1]
+    assert res["scene"]["mesh"]["degree"] == 2 and rec["force_n"] == pytest.approx(0.25)
+    assert res["effects"]["interfaces"]["cone_contact_jacobian"].startswith("convexified")
+    assert sum(rec["load_share_n"].values()) == pytest.approx(rec["force_n"], rel=1e-9)
+    assert rec["free_residual_norm_n"] <= 1e-6 * rec["force_n"]
+    contact = rec["interface"]["cone_contact"]
+    assert contact["open_nodes"] > 0  # the tissue has lifted off somewhere
+    assert contact["cones"]["cone_1"]["penetration_max_mm"] <= 1.5e-4  # the augmented Lagrangian's target
+
+
 def test_the_augmented_lagrangian_meets_its_target_whatever_its_penalty(tmp_path_factory, frictionless):
     """The multipliers bring every pressed node within the target of the cone; the answer does not follow kappa."""
     target = 1.5e-4  # mm: effects.contact_penetration_mm's default

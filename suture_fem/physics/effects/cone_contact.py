@@ -53,22 +53,16 @@ import logging
 import math
 from typing import Any
 
-import dolfinx
-import dolfinx.fem
-import dolfinx.fem.petsc
 import numpy as np
-import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.outline import project
-from suture_fem.geometry.regions import Facet
-from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
 from suture_fem.physics.effects.chatter import ChatterHold
+from suture_fem.physics.effects.cone_pairs import cone_pairs
 from suture_fem.physics.effects.contact import penalty_stiffness
-from suture_fem.physics.effects.friction import Aitken, SlipBound, global_dofs
+from suture_fem.physics.effects.friction import Aitken, SlipBound
 from suture_fem.physics.effects.pattern import ConeLayout, widen
 from suture_fem.support import compat
 
@@ -78,8 +72,6 @@ log = logging.getLogger("suture_fem")
 #: k / (k + kappa) where the tissue's local stiffness k exceeds kappa (0.96 per update measured at a
 #: single cone's apex); the factor extrapolates such a mode up to 1 / (1 - rate).
 UZAWA_OMEGA_MAX = 50.0
-#: The search rounds each sharp corner of a cone (off the thread) by this fraction of the suture's element size.
-CORNER_ROUNDING = 0.1
 
 
 class ConeContact(SlipBound):
@@ -94,14 +86,16 @@ class ConeContact(SlipBound):
     """
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
-                 slip_m: float, target_m: float | None = None):
+                 slip_m: float, target_m: float | None = None, convexified: bool = False):
         """``state``: the state's PETSc vector; ``pairs``: :func:`cone_pairs`'s arrays.
 
         ``target_m``: the augmented Lagrangian's largest penetration (m); None: the pure penalty.
+        ``convexified``: the unilateral Jacobian leaves out the distance's curvature where it softens (P2).
         """
         self.comm, self.kappa, self.model = comm, float(kappa), model
         self.augmented, self.target = target_m is not None, float(target_m or 0.0)
         self.bilateral = model == "sliding"
+        self.convexified = convexified and not self.bilateral
         self.mu = float(mu) if model == "coulomb" else 0.0
         self.slip = float(slip_m)
         self.nodes, self.dofs, self.X = pairs["nodes"], pairs["dofs"], pairs["X"]
@@ -140,7 +134,7 @@ class ConeContact(SlipBound):
         target = section.contact_penetration_mm * regions.MM if augmented(section) else None
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
-                      target)
+                      target, convexified=getattr(physics, "degree", 1) != 1)
         physics.notes.setdefault("interfaces", {}).update(contact.notes())
         return contact
 
@@ -249,14 +243,20 @@ class ConeContact(SlipBound):
         return float(self.comm.allreduce(float(np.sum(value))))
 
     def _gradient_hessian(self, u_vec: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2)."""
+        """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2; the friction's turning tangent left out).
+
+        Convexified (P2, unilateral): -w p d2(phi) is kept only where it stiffens; beside a convex arc or
+        corner it is a negative tangential stiffness -w p / R, which at P2 sent Newton down a direction of
+        negative curvature until a trial state inverted (docs/contact.md, "P2 cones").
+        """
         found = self.search(u_vec)
         p, closed = self._pressure(found["phi"])
         n, T = found["n"], found["T"]
         grad = -(self.weight * p)[:, None] * n
         # d2E = kappa w n n^T (closed) - w p d2(phi), d2(phi) = curvature (I - n n^T) (0 beside a straight segment)
         nn = n[:, :, None] * n[:, None, :]
-        bend = (-self.weight * p * found["curvature"])[:, None, None] * (np.eye(2)[None, :, :] - nn)
+        curvature = np.minimum(found["curvature"], 0.0) if self.convexified else found["curvature"]
+        bend = (-self.weight * p * curvature)[:, None, None] * (np.eye(2)[None, :, :] - nn)
         hess = (self.kappa * self.weight * closed)[:, None, None] * nn + bend
         if self.mu > 0.0:
             t, dt = self._law(found["g"])
@@ -326,6 +326,8 @@ class ConeContact(SlipBound):
                                "cone_contact_method": "augmented" if self.augmented else "penalty"}
         if self.augmented:
             out["contact_penetration_target_mm"] = self.target / regions.MM
+        if self.convexified:
+            out["cone_contact_jacobian"] = "convexified: the distance's softening curvature left out (P2)"
         if self.model == "coulomb":
             out.update({"cone_friction_coefficient": self.mu, "friction_slip_mm": self.slip / regions.MM})
         return out
@@ -343,58 +345,3 @@ def augmented(section: Any) -> bool:
     first update stopped the paper scene's ramp below 0.1 N, at one cone and at four, docs/contact.md).
     """
     return section.cone_contact_method == "augmented" and section.cone_interface != "sliding"
-
-
-def cone_pairs(physics: Any) -> dict[str, Any]:
-    """The owned cone-contact nodes of the tissue, their cones, lumped areas and the cones' axial dofs (collective)."""
-    V, mesh, tagged = physics.V, physics.mesh, physics.tagged
-    fdim = mesh.topology.dim - 1
-    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
-    n_local = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
-    owned = V.dofmap.index_map.size_local
-    facets = meshmod.facets(tagged, Facet.CONE_CONTACT)
-    if mesh.comm.allreduce(len(facets)) == 0:
-        raise ValueError("effects.cone_interface needs the mesh built with the cones' surfaces split "
-                         "(suture_fem.geometry.mesh.scene_mesh, or create_mesh(..., split_cones=True))")
-    suture = mark_dofs(V, meshmod.region_cells(tagged, regions.SUTURE)).reshape(n_local, -1).any(axis=1)
-    nodes = np.flatnonzero(mark_facet_nodes(V, fdim, facets) & ~suture)  # a node's facets may be on another rank
-    nodes = nodes[nodes < owned]
-    v = ufl.TestFunction(V)
-    x = ufl.SpatialCoordinate(mesh)
-    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags)(int(Facet.CONE_CONTACT))
-    area = _assembled(v[1] * 2 * math.pi * x[0] * ds, owned)[:, 1]  # int phi 2 pi r ds: the lumped area
-    xy = V.tabulate_dof_coordinates()[:, :2] / regions.MM
-    cones = tagged.geometry.cones
-    rho = CORNER_ROUNDING * tagged.sizes.suture
-    cone = _cone_of(xy[nodes], cones, tagged.geometry.z_end)
-    cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)
-    faces = mark_facet_nodes(V, fdim, meshmod.facets(tagged, Facet.INTERFACE))
-    surface = np.flatnonzero(cone_cells & faces)
-    surface = surface[surface < owned]
-    of_surface = _cone_of(xy[surface], cones, tagged.geometry.z_end)
-    axial = global_dofs(physics, surface, 1)
-    cone_dofs = [np.concatenate(physics.comm.allgather(axial[of_surface == c])).astype(np.int64)
-                 for c in range(len(cones))]
-    dofs = np.stack([global_dofs(physics, nodes, 0), global_dofs(physics, nodes, 1)], axis=1)
-    return {"nodes": nodes, "dofs": dofs, "X": xy[nodes], "cone": cone, "weight": area[nodes],
-            "cone_dofs": cone_dofs, "corner_mm": rho,
-            "outlines": [c.rounded(rho, tagged.geometry.r_thread) for c in cones]}
-
-
-def _cone_of(xy_mm: np.ndarray, cones: list, z_end: float) -> np.ndarray:
-    """The cone whose axial extent holds each point (-1 for none)."""
-    tol = 1e-9 * max(z_end, 1.0)
-    out = np.full(len(xy_mm), -1, dtype=np.int64)
-    for k, c in enumerate(cones):
-        lo, hi = min(c.base_z, c.apex_z), max(c.base_z, c.apex_z)
-        out[(xy_mm[:, 1] >= lo - tol) & (xy_mm[:, 1] <= hi + tol)] = k
-    return out
-
-
-def _assembled(linear: Any, owned: int) -> np.ndarray:
-    """A vector form's owned nodal values, (owned, 2) (collective)."""
-    b = dolfinx.fem.petsc.assemble_vector(compat.form(linear))
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    values = b.array[: 2 * owned].reshape(-1, 2).copy()
-    b.destroy()
-    return values

@@ -1,0 +1,85 @@
+"""The tissue's nodes on the cones' surfaces, their cones and lumped areas, for the cones' contact.
+
+:func:`cone_pairs` reads them off a built Physics whose mesh has the cones' surfaces split
+(:func:`~suture_fem.geometry.gmsh_model.split_interfaces`): each owned tissue node on a facet tagged
+``cone_contact``, its cone, its 2 pi r-weighted lumped area, and every cone's axial dofs on its interface,
+with each cone's outline rounded at its sharp convex corners for the search
+(:mod:`~suture_fem.physics.effects.cone_contact`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+from suture_fem.geometry import mesh as meshmod
+from suture_fem.geometry import regions
+from suture_fem.geometry.regions import Facet
+from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
+from suture_fem.physics.effects.friction import global_dofs
+from suture_fem.support import compat
+
+#: The search rounds each sharp corner of a cone (off the thread) by this fraction of the suture's element size.
+CORNER_ROUNDING = 0.1
+
+
+def cone_pairs(physics: Any) -> dict[str, Any]:
+    """The owned cone-contact nodes of the tissue, their cones, lumped areas and the cones' axial dofs (collective)."""
+    V, mesh, tagged = physics.V, physics.mesh, physics.tagged
+    fdim = mesh.topology.dim - 1
+    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
+    n_local = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
+    owned = V.dofmap.index_map.size_local
+    facets = meshmod.facets(tagged, Facet.CONE_CONTACT)
+    if mesh.comm.allreduce(len(facets)) == 0:
+        raise ValueError("effects.cone_interface needs the mesh built with the cones' surfaces split "
+                         "(suture_fem.geometry.mesh.scene_mesh, or create_mesh(..., split_cones=True))")
+    suture = mark_dofs(V, meshmod.region_cells(tagged, regions.SUTURE)).reshape(n_local, -1).any(axis=1)
+    nodes = np.flatnonzero(mark_facet_nodes(V, fdim, facets) & ~suture)  # a node's facets may be on another rank
+    nodes = nodes[nodes < owned]
+    v = ufl.TestFunction(V)
+    x = ufl.SpatialCoordinate(mesh)
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags)(int(Facet.CONE_CONTACT))
+    area = _assembled(v[1] * 2 * math.pi * x[0] * ds, owned)[:, 1]  # int phi 2 pi r ds: the lumped area
+    xy = V.tabulate_dof_coordinates()[:, :2] / regions.MM
+    cones = tagged.geometry.cones
+    rho = CORNER_ROUNDING * tagged.sizes.suture
+    cone = _cone_of(xy[nodes], cones, tagged.geometry.z_end)
+    cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)
+    faces = mark_facet_nodes(V, fdim, meshmod.facets(tagged, Facet.INTERFACE))
+    surface = np.flatnonzero(cone_cells & faces)
+    surface = surface[surface < owned]
+    of_surface = _cone_of(xy[surface], cones, tagged.geometry.z_end)
+    axial = global_dofs(physics, surface, 1)
+    cone_dofs = [np.concatenate(physics.comm.allgather(axial[of_surface == c])).astype(np.int64)
+                 for c in range(len(cones))]
+    dofs = np.stack([global_dofs(physics, nodes, 0), global_dofs(physics, nodes, 1)], axis=1)
+    return {"nodes": nodes, "dofs": dofs, "X": xy[nodes], "cone": cone, "weight": area[nodes],
+            "cone_dofs": cone_dofs, "corner_mm": rho,
+            "outlines": [c.rounded(rho, tagged.geometry.r_thread) for c in cones]}
+
+
+def _cone_of(xy_mm: np.ndarray, cones: list, z_end: float) -> np.ndarray:
+    """The cone whose axial extent holds each point (-1 for none)."""
+    tol = 1e-9 * max(z_end, 1.0)
+    out = np.full(len(xy_mm), -1, dtype=np.int64)
+    for k, c in enumerate(cones):
+        lo, hi = min(c.base_z, c.apex_z), max(c.base_z, c.apex_z)
+        out[(xy_mm[:, 1] >= lo - tol) & (xy_mm[:, 1] <= hi + tol)] = k
+    return out
+
+
+def _assembled(linear: Any, owned: int) -> np.ndarray:
+    """A vector form's owned nodal values, (owned, 2) (collective)."""
+    b = dolfinx.fem.petsc.assemble_vector(compat.form(linear))
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    values = b.array[: 2 * owned].reshape(-1, 2).copy()
+    b.destroy()
+    return values

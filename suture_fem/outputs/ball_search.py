@@ -34,6 +34,7 @@ import numpy as np
 
 from suture_fem.outputs.ball import ball_rule, point_values, weighted_averages
 from suture_fem.outputs.ball_cells import CellOverlap
+from suture_fem.outputs.climb import climb
 from suture_fem.outputs.disc import DiscMax, _largest
 from suture_fem.support import compat
 
@@ -48,7 +49,6 @@ COARSE_SPACING, COARSE_NODES = 1 / 2, 100_000
 #: Centres whose located points are kept per region (under 2 kB each: 289 points, a 2- and a 4-byte index).
 KEPT = 20_000
 
-_STEPS = np.array(list(itertools.product((-1, 0, 1), repeat=3)), dtype=np.int64)  # the 27 offsets; 13: none
 _STENCIL = [s for s in itertools.product(range(-2, 3), repeat=3) if sum(i * i for i in s) <= 4]  # within 2 nodes
 _AROUND = [s for s in itertools.product((-1, 0, 1), repeat=3) if any(s)]
 
@@ -251,54 +251,14 @@ def max_ball_average(ball: BallRegion, values: np.ndarray, starts: tuple[np.ndar
     for s in np.concatenate(chosen) if chosen else ():
         if all(np.linalg.norm(s - c) >= ball.radius for c in climbs):
             climbs.append(s)
-    values_at, centres = _climbs(ball, values, climbs, allowed, known)
-    best_value, best = -np.inf, None
-    for value, at in zip(values_at, centres):  # the first of equal maxima, in the climbs' order
-        if value > best_value:
-            best_value, best = value, [float(c) for c in at * ball.unit]
-    return DiscMax(best_value, best)
+    return DiscMax(*climb(climbs, LEVELS, MAX_MOVES, ball.unit, lambda c: ball.averages(values, c), allowed, known,
+                          fold=_mirrored if ball.mirror else None))
 
 
-def _climbs(ball: BallRegion, values: np.ndarray, starts: list[np.ndarray], allowed: Allowed | None,
-            known: dict) -> tuple[list[float], list[np.ndarray]]:
-    """Each start climbed through the :data:`LEVELS`: (its best average, its centre in units of ``ball.unit``).
-
-    At each level a climb's 3 x 3 x 3 grid of spacing ``step`` units moves to its best centre while that is
-    better than the climb's best so far, and stops when it is not or when it is the grid's own centre.
-    Centres are integer multiples of the finest spacing, so a grid point's position and its key in ``known``
-    are the same whichever grid reached it. The climbs move in step: one collective batch of new averages
-    per move of all of them (each climb's moves are its own, as if climbed alone).
-    """
-    at = [np.round(s / ball.unit).astype(np.int64) for s in starts]
-    best = [-np.inf] * len(starts)
-    for level in LEVELS:
-        step = int(round(level / LEVELS[-1]))
-        active = list(range(len(starts)))
-        for _ in range(MAX_MOVES):
-            if not active:
-                break
-            grids = {}
-            for i in active:
-                grid = np.round(at[i] / step).astype(np.int64) * step + _STEPS * step
-                if ball.mirror:
-                    grid[:, 2] = -np.abs(grid[:, 2])
-                keys = list(map(tuple, grid.tolist()))
-                ok = allowed(grid * ball.unit) if allowed is not None else np.ones(len(grid), dtype=bool)
-                grids[i] = (grid, keys, ok)
-            new = {k: g[i] for g, keys, ok in grids.values() for i, k in enumerate(keys) if ok[i] and k not in known}
-            if new:
-                known.update(zip(new, ball.averages(values, np.array(list(new.values())) * ball.unit).tolist()))
-            still = []
-            for i in active:
-                grid, keys, ok = grids[i]
-                avgs = np.array([known[k] if ok[n] else -np.inf for n, k in enumerate(keys)])
-                j = int(np.argmax(avgs))
-                if avgs[j] > best[i]:
-                    best[i], at[i] = float(avgs[j]), grid[j]
-                    if j != 13:  # not the grid's own centre: a neighbour was better, move on
-                        still.append(i)
-            active = still
-    return best, at
+def _mirrored(grid: np.ndarray) -> np.ndarray:
+    """Grid points (in units) folded onto the half model's side of its symmetry plane z = 0."""
+    grid[:, 2] = -np.abs(grid[:, 2])
+    return grid
 
 
 def ball_maxima(ball: BallRegion, values: np.ndarray, near: tuple[Allowed, np.ndarray] | None = None

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from suture_fem.outputs.ball_cells import near_cells, reach_groups
+from suture_fem.outputs.climb import climb
 
 #: Most (disc, cell) pairs whose weights are kept for later fields and states (28 bytes each: 28 MB per region).
 KEPT_PAIRS = 1_000_000
@@ -37,7 +38,6 @@ KEPT_PAIRS = 1_000_000
 #: the finest is the point rule's search's finest) and the largest number of moves per spacing.
 LEVELS = (1 / 4, 1 / 8, 1 / 16, 1 / 32, 1 / 64)
 MAX_MOVES = 20
-_STEPS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)  # index 4: no move
 
 
 class DiscOverlap:
@@ -201,43 +201,11 @@ def overlap_climbs(field: Any, starts: list[np.ndarray], radius: float, allowed:
                    known: dict) -> tuple[float, list[float] | None]:
     """The largest :func:`overlap_averages` found by a pattern search from each start: (value, centre) (collective).
 
-    Each start (the point rule's best centre of one of its climbs) is climbed through the :data:`LEVELS`: a
-    3 x 3 grid fixed in space (multiples of the finest spacing) moves to its best centre while that is better
-    and not its own centre. The climbs move in step (one batch of new averages per move of all of them; each
-    climb's moves are its own). ``known``: the averages at grid centres already computed (shared between
-    searches). A local search: the average of a field fitted per cell has small local maxima where the circle
-    crosses a rim's small cells (1 cone, P2 r1: a scan at R/32 found one 0.4 % above the value found, R/5
-    away; docs/three-d.md).
+    Each start (the point rule's best centre of one of its climbs) is climbed through the :data:`LEVELS` by
+    :func:`~suture_fem.outputs.climb.climb` (3 x 3 grids fixed in space). ``known``: the averages at grid
+    centres already computed (shared between searches). A local search: the average of a field fitted per
+    cell has small local maxima where the circle crosses a rim's small cells (1 cone, P2 r1: a scan at R/32
+    found one 0.4 % above the value found, R/5 away; docs/three-d.md).
     """
-    unit = radius * LEVELS[-1]
-    at = [np.round(np.asarray(s, dtype=float) / unit).astype(np.int64) for s in starts]
-    value = [-np.inf] * len(at)
-    for level in LEVELS:
-        step = int(round(level / LEVELS[-1]))
-        active = list(range(len(at)))
-        for _ in range(MAX_MOVES):
-            if not active:
-                break
-            grids = {}
-            for i in active:
-                grid = np.round(at[i] / step).astype(np.int64) * step + _STEPS * step
-                ok = allowed(grid * unit) if allowed is not None else np.ones(len(grid), dtype=bool)
-                grids[i] = (grid, [tuple(k) for k in grid.tolist()], ok)
-            new = {k: g[n] for g, keys, ok in grids.values() for n, k in enumerate(keys) if ok[n] and k not in known}
-            if new:  # unrestricted averages: both searches read them
-                known.update(zip(new, overlap_averages(field, np.array(list(new.values())) * unit, radius).tolist()))
-            still = []
-            for i in active:
-                grid, keys, ok = grids[i]
-                avgs = np.array([known[k] if ok[n] else -np.inf for n, k in enumerate(keys)])
-                j = int(np.argmax(avgs))
-                if avgs[j] > value[i]:
-                    value[i], at[i] = float(avgs[j]), grid[j]
-                    if j != 4:  # a neighbour was better: move on
-                        still.append(i)
-            active = still
-    best_value, best = -np.inf, None
-    for v, a in zip(value, at):  # the first of equal maxima, in the climbs' order
-        if v > best_value:
-            best_value, best = v, [float(c) for c in a * unit]
-    return best_value, best
+    return climb(starts, LEVELS, MAX_MOVES, radius * LEVELS[-1], lambda c: overlap_averages(field, c, radius),
+                 allowed, known)

@@ -25,9 +25,10 @@ def _cones(model: str, *more: str) -> list[str]:
 
 
 _run = run_paper
-#: The frictionless cone's runs, with a report at 0.2 N where a few tissue nodes are still pressed on the cone
-#: (at 1 N the tissue has left it everywhere but at the junctions with the tied thread).
-FRICTIONLESS = _cones("frictionless", "loading.report_forces_n=[0.2]")
+#: The frictionless cone's runs, with a report at 0.1 N where a few tissue nodes are still pressed on the cone
+#: (at 1 N the tissue has left it everywhere but at the junctions with the tied thread; from about 0.2 N on
+#: the release has two equilibria, docs/contact.md).
+FRICTIONLESS = _cones("frictionless", "loading.report_forces_n=[0.1]")
 
 
 @pytest.fixture(scope="module")
@@ -119,7 +120,7 @@ def test_a_frictionless_cone_lifts_off_and_the_lift_grows_from_tied_through_slid
     tied = _run(tmp_path_factory, "tied", SCENE)["at_forces"][-1]["usum_mm"]
     assert tied < sliding["at_forces"][-1]["usum_mm"] < frictionless["at_forces"][-1]["usum_mm"]
     assert sliding["at_forces"][-1]["interface"]["cone_contact"]["cones"]["cone_1"]["slip_max_mm"] > 0.1
-    assert frictionless["at_forces"][0]["interface"]["cone_contact"]["slip_nodes"] > 0  # pressed at 0.2 N
+    assert frictionless["at_forces"][0]["interface"]["cone_contact"]["slip_nodes"] > 0  # pressed at 0.1 N
     rec = frictionless["at_forces"][-1]
     contact = rec["interface"]["cone_contact"]
     assert contact["open_nodes"] > 0

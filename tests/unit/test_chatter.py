@@ -43,3 +43,12 @@ def test_nothing_is_held_where_holding_does_not_apply():
     _swapping(hold)
     assert not hold.held.any()
     assert hold.closed(np.array([-2.0, 4.0, 1.0])).tolist() == [False, True, True]
+
+
+def test_a_node_at_zero_pressure_to_round_off_does_not_swap():
+    """Sign changes within the band (a tenth of the target's pressure) are not swaps: round-off holds no node."""
+    hold = ChatterHold(MPI.COMM_SELF, 2, possible=True, slack=10.0)
+    hold.begin(first=True)
+    for trial in ([1e-9, 5.0], [-1e-9, -5.0], [0.5, 5.0], [-0.5, -5.0]):
+        hold.iterate(np.array(trial))
+    assert hold.held.tolist() == [False, True]

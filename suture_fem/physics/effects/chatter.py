@@ -34,14 +34,18 @@ import numpy as np
 
 #: Status changes of a node between the Jacobians of one Newton solve after which it is held.
 SWITCHES = 2
+#: A change of status counts only when the trial pressure lambda - kappa phi crosses this fraction of the
+#: penetration target's pressure on the other side of 0: a node at p = 0 to round-off does not swap, so
+#: which nodes are held does not depend on the order of a sum (one rank or two; Debian 12 or 13).
+BAND = 0.1
 
 
 class ChatterHold:
     """Which pairs are held within the solve under way (``held``) and in which status (``state``: pressed)."""
 
-    def __init__(self, comm: Any, pairs: int, possible: bool):
-        """``possible``: holding applies (frictionless cones by the augmented Lagrangian)."""
-        self.comm, self.possible = comm, possible
+    def __init__(self, comm: Any, pairs: int, possible: bool, slack: float = 0.0):
+        """``possible``: holding applies (frictionless cones, augmented Lagrangian); ``slack``: the target (Pa)."""
+        self.comm, self.possible, self.band = comm, possible, BAND * slack
         self.held = np.zeros(pairs, dtype=bool)
         self.state = np.zeros(pairs, dtype=bool)
         self._switches = np.zeros(pairs, dtype=np.int64)
@@ -71,6 +75,7 @@ class ChatterHold:
         free = trial > 0.0
         new = np.zeros_like(free)
         if self._last is not None:
+            free = np.where(np.abs(trial) > self.band, free, self._last)  # within the band: as it was
             self._switches += (free != self._last) & ~self.held
             new = (self._switches >= SWITCHES) & ~self.held
             self.held |= new

@@ -110,7 +110,7 @@ class ConeContact(SlipBound):
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
         self.bound = np.zeros(self.pairs)
         self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
-        self.hold = ChatterHold(comm, self.pairs, self.augmented and self.mu == 0.0)  # nodes that swap status
+        self.hold = ChatterHold(comm, self.pairs, self.augmented and self.mu == 0.0, self.kappa * self.target)
         self._state = state
         self._found: tuple[np.ndarray, dict[str, np.ndarray]] | None = None  # the last search's (input, places)
         self._layout = ConeLayout(self.dofs, self.cone, self.cone_dofs)

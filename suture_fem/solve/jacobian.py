@@ -50,25 +50,21 @@ def follows_state(problem: Any) -> bool:
     return any(getattr(terms, "augmented", False) for terms in nodal_terms(problem))
 
 
-def assemble(problem: Any, J_form: Any, A: Any, settled: bool = False) -> bool:
+def assemble(problem: Any, J_form: Any, A: Any, settled: bool = False) -> None:
     """A = dR/du at ``problem``'s current state: the form, then every nodal term (collective).
 
     ``settled``: the augmented Lagrangian's pressed nodes held on their cones (the module docstring).
-    Returns whether a nodal term changed its law while adding its part (the cones' swapping nodes held,
-    :mod:`~suture_fem.physics.effects.chatter`): the residual and potential at this state change with it.
     """
     A.zeroEntries()
     dolfinx.fem.petsc.assemble_matrix(A, J_form)
     A.assemble()
     u_vec = compat.function_vector(problem.state)
-    changed = False
     for terms in nodal_terms(problem):
         if settled and getattr(terms, "augmented", False):
             with _stiffened(terms, u_vec):
-                changed |= bool(terms.add_jacobian(u_vec, A))
+                terms.add_jacobian(u_vec, A)
         else:
-            changed |= bool(terms.add_jacobian(u_vec, A))
-    return changed
+            terms.add_jacobian(u_vec, A)
 
 
 @contextmanager
@@ -82,7 +78,7 @@ def _stiffened(terms: Any, u_vec: Any) -> Iterator[None]:
     phi = terms.search(u_vec)["phi"]
     trial = multiplier - kappa * phi
     terms.kappa = kappa * SETTLED_STIFFENING
-    terms.multiplier = np.where(terms.hold.closed(trial), trial + terms.kappa * phi, multiplier)  # held: pressed
+    terms.multiplier = np.where(trial > 0.0, trial + terms.kappa * phi, multiplier)
     try:
         yield
     finally:

@@ -82,6 +82,6 @@ class IterateMemo:
             self.residual = b.getArray(readonly=True).copy()
 
     def forget(self) -> None:
-        """Nothing kept: the next iterate is evaluated afresh (also when a nodal law changed within the solve)."""
+        """Nothing kept: the next iterate is evaluated afresh."""
         self._key = None
         self.admissible, self.violation, self.potential, self.residual = None, None, None, None

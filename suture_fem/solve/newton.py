@@ -270,8 +270,7 @@ class NewtonSolver(Linearised):
         return value
 
     def _assemble_full_jacobian(self) -> None:
-        if jacobian.assemble(self.physics, self.J_form, self.A_full):  # a nodal term's law changed: see memo.py
-            self.memo.forget()
+        jacobian.assemble(self.physics, self.J_form, self.A_full)  # the forms' and the nodal terms' (shared)
 
     def _jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         self.jacobian_current = True  # the factorisation SNES makes next is A at this iterate

@@ -59,7 +59,6 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import regions
 from suture_fem.geometry.outline import project
-from suture_fem.physics.effects.chatter import ChatterHold
 from suture_fem.physics.effects.cone_pairs import cone_pairs
 from suture_fem.physics.effects.contact import penalty_stiffness
 from suture_fem.physics.effects.friction import Aitken, SlipBound
@@ -110,7 +109,6 @@ class ConeContact(SlipBound):
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
         self.bound = np.zeros(self.pairs)
         self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
-        self.hold = ChatterHold(comm, self.pairs, self.augmented and self.mu == 0.0, self.kappa * self.target)
         self._state = state
         self._found: tuple[np.ndarray, dict[str, np.ndarray]] | None = None  # the last search's (input, places)
         self._layout = ConeLayout(self.dofs, self.cone, self.cone_dofs)
@@ -171,7 +169,7 @@ class ConeContact(SlipBound):
         trial = self.multiplier - self.kappa * phi
         if self.bilateral:
             return trial, np.ones(self.pairs, dtype=bool)
-        closed = self.hold.closed(trial)
+        closed = trial > 0.0
         return np.where(closed, trial, 0.0), closed
 
     def pressure(self) -> np.ndarray:
@@ -190,9 +188,6 @@ class ConeContact(SlipBound):
         if not self.augmented:
             return settled
         phi = self.search(self._state)["phi"]
-        swapped = self.hold.check(self.multiplier - self.kappa * phi, self.kappa * self.target)
-        if swapped:  # held nodes on the law's wrong side: solve again with them held the other way
-            return False
         p, closed = self._pressure(phi)
         depth = np.where(closed, np.abs(phi), 0.0)  # pressed nodes off the surface, inside or (lambda > 0) outside
         worst = float(self.comm.allreduce(float(np.max(depth, initial=0.0)), op=MPI.MAX))
@@ -209,24 +204,18 @@ class ConeContact(SlipBound):
         super().start()
         self._uzawa = Aitken(self.comm, UZAWA_OMEGA_MAX)
 
-    def begin_solve(self, first: bool) -> None:
-        """A Newton solve starts (:meth:`ChatterHold.begin`; ``first``: of a load step)."""
-        self.hold.begin(first)
-
     def frozen(self) -> tuple[np.ndarray, ...]:
-        """Copies of the Coulomb bound, the multipliers and the held nodes: a state's part, kept with it."""
-        return self.bound.copy(), self.multiplier.copy(), *self.hold.keep()
+        """Copies of the Coulomb bound and the multipliers: a state's part, kept with it."""
+        return self.bound.copy(), self.multiplier.copy()
 
     def thaw(self, kept: tuple[np.ndarray, ...]) -> None:
         """Set what :meth:`frozen` returned."""
         self.bound, self.multiplier = kept[0].copy(), kept[1].copy()
-        self.hold.restore((kept[2], kept[3]))
 
     def reset(self) -> None:
-        """At rest: no pressure, no slip bound, no multiplier, no node held."""
+        """At rest: no pressure, no slip bound, no multiplier."""
         self.bound[:] = 0.0
         self.multiplier[:] = 0.0
-        self.hold.begin(first=True)
 
     def _law(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         th = np.tanh(g / self.slip)
@@ -280,12 +269,10 @@ class ConeContact(SlipBound):
                     addv=PETSc.InsertMode.ADD_VALUES)
         b.assemble()
 
-    def add_jacobian(self, u_vec: Any, A: Any) -> bool:
-        """Add the terms' Hessian to ``A`` (assembled; collective); once per iterate: True when it held a node."""
-        held = self.hold.iterate(self.multiplier - self.kappa * self.search(u_vec)["phi"])
+    def add_jacobian(self, u_vec: Any, A: Any) -> None:
+        """Add the terms' Hessian (symmetric) to the full Jacobian ``A`` (assembled; collective)."""
         _, hess = self._gradient_hessian(u_vec)
         self._add_blocks(A, hess)
-        return held
 
     def _add_blocks(self, A: Any, hess: np.ndarray) -> None:
         """K_aa = H, K_ab = -H[:, z] alpha, K_bb = sum_a H_zz alpha alpha^T for every pair's H (alpha = 1 / n_b)."""

@@ -91,9 +91,6 @@ class SlipBound:
         """One update between Newton solves; True when the law held to ``tolerance`` (N) before it (collective)."""
         return self.update_bound() <= tolerance
 
-    def begin_solve(self, first: bool) -> None:
-        """A Newton solve starts (``first``: of a load step); nothing to do for a slip bound."""
-
     def frozen(self) -> tuple[np.ndarray, ...]:
         """Copies of what the updates between solves hold (the bound): a state's part, kept with it."""
         return (self.bound.copy(),)
@@ -358,12 +355,7 @@ def settle(laws: Sequence[SlipBound], solve_once: Callable[[], tuple[bool, int, 
     the last solve's (converged, reason) with the iterations summed; bounds that have not settled after
     :data:`FIXED_POINT_SOLVES` solves fail the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
     """
-    def solve(first: bool) -> tuple[bool, int, str]:
-        for law in laws:
-            law.begin_solve(first)
-        return solve_once()
-
-    converged, its, reason = solve(True)
+    converged, its, reason = solve_once()
     for law in laws:
         law.start()
     for _ in range(FIXED_POINT_SOLVES):
@@ -371,6 +363,6 @@ def settle(laws: Sequence[SlipBound], solve_once: Callable[[], tuple[bool, int, 
             return converged, its, reason
         if all([law.update(tolerance()) for law in laws]):  # every law updated, then judged
             return converged, its, reason
-        converged, more, reason = solve(False)
+        converged, more, reason = solve_once()
         its += more
     return False, its, NOT_SETTLED

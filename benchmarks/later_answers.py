@@ -35,29 +35,6 @@ PETSC_EVENTS = {"factor_numeric": ("MatCholFctrNum", "MatLUFactorNum"),
                 "factor_symbolic": ("MatCholFctrSym", "MatLUFactorSym")}
 
 
-def _counting(owner: Any, attr: str, counts: dict[str, int], name: str) -> None:
-    inner = getattr(owner, attr)
-
-    def counted(*args: Any, **kwargs: Any) -> Any:
-        counts[name] = counts.get(name, 0) + 1
-        return inner(*args, **kwargs)
-
-    setattr(owner, attr, counted)
-
-
-def _timing(owner: Any, attr: str, cpu: dict[str, float], name: str) -> None:
-    inner = getattr(owner, attr)
-
-    def timed(*args: Any, **kwargs: Any) -> Any:
-        t0 = time.process_time()
-        try:
-            return inner(*args, **kwargs)
-        finally:
-            cpu[name] = cpu.get(name, 0.0) + time.process_time() - t0
-
-    setattr(owner, attr, timed)
-
-
 def _petsc_counts(PETSc: Any) -> dict[str, int]:
     out = {}
     for name, events in PETSC_EVENTS.items():
@@ -78,26 +55,28 @@ def child(degree: int, scales: list[float], out: Path) -> dict[str, Any]:
     from suture_fem.solve.guard import DomainGuard
     from suture_fem.solve.newton import NewtonSolver
 
-    counts: dict[str, int] = {}
-    cpu: dict[str, float] = {}
-    _counting(dolfinx.cpp.fem.petsc, "assemble_matrix", counts, "assemble_matrix")
-    _counting(dolfinx.cpp.fem, "assemble_vector", counts, "assemble_vector")
-    _counting(dolfinx.cpp.fem, "assemble_scalar", counts, "assemble_scalar")
-    _counting(DomainGuard, "admissible", counts, "guard_checks")
-    _timing(NewtonSolver, "solve", cpu, "newton")
-    _timing(Outputs, "evaluate", cpu, "outputs")
-    _timing(Outputs, "thread_end_displacement_mm", cpu, "outputs")
+    sys.path.insert(0, str(ROOT / "benchmarks"))  # the child runs with -P on another code's PYTHONPATH
+    from meter import Meter
+
+    meter = Meter()
+    for owner, name in ((dolfinx.cpp.fem.petsc, "assemble_matrix"), (dolfinx.cpp.fem, "assemble_vector"),
+                        (dolfinx.cpp.fem, "assemble_scalar")):
+        meter.wrap(owner, name, name)
+    meter.wrap(DomainGuard, "admissible", "guard_checks")
+    meter.wrap(NewtonSolver, "solve", "newton")
+    meter.wrap(Outputs, "evaluate", "outputs")
+    meter.wrap(Outputs, "thread_end_displacement_mm", "outputs")
     model = Model(Scene.builtin("paper").with_values({"mesh.degree": degree, "mesh.refinement": 0}), MPI.COMM_SELF)
     model.solve(out / "answer_0")
     rows = []
     for i, scale in enumerate(scales, start=1):
-        counts.clear()
-        cpu.clear()
+        meter.take()
         petsc0 = _petsc_counts(PETSc)
         t0 = time.process_time()
         model.set({"materials.tissue_scale": scale})
         results = model.solve(out / f"answer_{i}").to_dict()
         total = time.process_time() - t0
+        cpu, counts = meter.take()
         petsc1 = _petsc_counts(PETSc)
         row = {"answer": i, "tissue_scale": scale, "cpu_s": total, "newton_s": cpu.get("newton", 0.0),
                "outputs_s": cpu.get("outputs", 0.0), "newton_iterations": results["newton_iterations"],

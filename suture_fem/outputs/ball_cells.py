@@ -9,7 +9,7 @@ the ball. So the error is confined to the cells on the ball's surface, however s
 a point rule's error is not (each of its points weighs a fixed share of the ball, whatever cell it falls in).
 With ``mirror`` the ball's part above the plane z = 0 is read at its mirror image (the half model). Hand-written;
 the cells near a centre are found by scipy's k-d tree over the centroids, per group of cells of similar reach.
-Each rank sums its own cells; :class:`suture_fem.outputs.ball_search.BallRegion` reduces the sums over ranks.
+Each rank sums its own cells; :func:`reduced_averages` reduces the sums over ranks (the 2-D disc's too).
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
 #: Points per cut cell (a power of 2: Sobol's balance; 64 left errors of 2-5 % in the searched maxima on solved meshes).
 SAMPLES = 512
@@ -48,6 +49,19 @@ def near_cells(groups: list[tuple[float, np.ndarray, Any]], centre: np.ndarray, 
     """Per group of :func:`reach_groups`, its cells that may meet the ball (disc) of ``radius`` at ``centre``."""
     return [cells[np.asarray(tree.query_ball_point(centre, radius + bound), dtype=np.int64)]
             for bound, cells, tree in groups]
+
+
+def reduced_averages(comm: Any, both: np.ndarray) -> np.ndarray:
+    """The averages from each rank's sums per centre (collective): -inf where no cell holds it or nothing overlaps it.
+
+    ``both`` (m, 3): value x overlap, overlap, and 1 where one of the rank's cells holds the centre; summed over
+    the ranks in place.
+    """
+    if comm.size > 1:
+        comm.Allreduce(MPI.IN_PLACE, both, op=MPI.SUM)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        avg = np.where(both[:, 1] > 0, both[:, 0] / both[:, 1], np.nan)
+    return np.where((both[:, 2] > 0) & np.isfinite(avg), avg, -np.inf)
 
 
 class CellOverlap:

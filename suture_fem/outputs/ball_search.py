@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from suture_fem.outputs.ball import ball_rule, point_values, weighted_averages
-from suture_fem.outputs.ball_cells import CellOverlap
+from suture_fem.outputs.ball_cells import CellOverlap, reduced_averages
 from suture_fem.outputs.climb import climb
 from suture_fem.outputs.disc import DiscMax, _largest
 from suture_fem.support import compat
@@ -91,18 +91,12 @@ class BallRegion:
 
         From each cell's overlap volume with the ball (:mod:`suture_fem.outputs.ball_cells`).
         """
-        from mpi4py import MPI
-
         centres = self.fold(centres)
         idx, _ = self.locate(centres, keep=False)
         both = np.zeros((len(centres), 3))
         both[:, :2] = self.cells_overlap.sums(values, centres)
         both[idx, 2] = 1.0
-        if self.comm.size > 1:
-            self.comm.Allreduce(MPI.IN_PLACE, both, op=MPI.SUM)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            avg = np.where(both[:, 1] > 0, both[:, 0] / both[:, 1], np.nan)
-        return np.where((both[:, 2] > 0) & np.isfinite(avg), avg, -np.inf)
+        return reduced_averages(self.comm, both)
 
     def rule_averages(self, values: np.ndarray, centres: np.ndarray) -> np.ndarray:
         """As :meth:`averages`, from the ball's point rule (:func:`~suture_fem.outputs.ball.ball_rule`)."""

@@ -29,8 +29,9 @@ from typing import Any
 
 import numpy as np
 
-from suture_fem.outputs.ball_cells import near_cells, reach_groups
+from suture_fem.outputs.ball_cells import near_cells, reach_groups, reduced_averages
 from suture_fem.outputs.climb import climb
+from suture_fem.support import compat
 
 #: Most (disc, cell) pairs whose weights are kept for later fields and states (28 bytes each: 28 MB per region).
 KEPT_PAIRS = 1_000_000
@@ -154,8 +155,6 @@ def _triangle(p: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
 
 def field_overlap(field: Any, radius: float) -> tuple[DiscOverlap, np.ndarray]:
     """A :class:`~suture_fem.outputs.disc.CellField`'s :class:`DiscOverlap` (kept with its ``discs``), vertex values."""
-    from suture_fem.support import compat
-
     kept = field.discs.overlaps if field.discs is not None else field.__dict__.setdefault("_overlaps", {})
     if radius not in kept:
         mesh = field.mesh
@@ -187,13 +186,7 @@ def overlap_averages(field: Any, centres: np.ndarray, radius: float,
         both[:, :2] = overlap.sums(values, c)
         idx, _ = field.locate(np.column_stack([c, np.zeros(len(c))]), keep=False)
         both[idx, 2] = 1.0
-    if field.comm.size > 1:
-        from mpi4py import MPI
-
-        field.comm.Allreduce(MPI.IN_PLACE, both, op=MPI.SUM)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        avg = np.where(both[:, 1] > 0, both[:, 0] / both[:, 1], np.nan)
-    out[ok] = np.where((both[:, 2] > 0) & np.isfinite(avg), avg, -np.inf)
+    out[ok] = reduced_averages(field.comm, both)
     return out
 
 

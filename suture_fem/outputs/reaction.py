@@ -12,14 +12,11 @@ from __future__ import annotations
 
 from typing import Any
 
-import dolfinx.fem.petsc
 import numpy as np
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from suture_fem.outputs.base import Quantity, State
-from suture_fem.physics.effects.friction import nodal_terms
-from suture_fem.support import compat
+from suture_fem.physics.effects.friction import full_residual
 
 
 class Reaction(Quantity):
@@ -28,10 +25,7 @@ class Reaction(Quantity):
     def forces(self) -> tuple[float, float]:
         """(axial force of the fixed outer surface on the body, residual norm at the free dofs), N (collective)."""
         physics = self.setup.physics
-        b = dolfinx.fem.petsc.assemble_vector(physics.form("residual"))
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        for terms in nodal_terms(physics):
-            terms.add_residual(compat.function_vector(physics.state), b)
+        b = full_residual(physics)
         n_owned = b.getLocalSize()
         owned = physics.outer_z_dofs[physics.outer_z_dofs < n_owned]
         local = float(np.sum(b.array[owned]))

@@ -27,7 +27,7 @@ from suture_fem.geometry import regions
 from suture_fem.physics import constraints as cons
 from suture_fem.physics.constraints import Unknowns, classify_dofs, pinned_pressure, rigid_suture, supports
 from suture_fem.physics.effects import Effects, rigid_notes
-from suture_fem.physics.effects.friction import nodal_terms
+from suture_fem.physics.effects.friction import full_residual
 from suture_fem.support import compat
 
 
@@ -55,10 +55,7 @@ class DisplacementControl:
 
     def end_force(self, physics: Any) -> float:
         """The axial force on the end now (N): the residual's internal force summed over its dofs (collective)."""
-        b = dolfinx.fem.petsc.assemble_vector(physics.form("residual"))
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        for terms in nodal_terms(physics):  # friction's and the cones' contact terms act on the suture's dofs too
-            terms.add_residual(compat.function_vector(physics.state), b)
+        b = full_residual(physics)  # friction's and the cones' contact terms act on the suture's dofs too
         local = float(np.sum(b.array[self.dofs[: self.owned]]))
         b.destroy()
         return float(physics.comm.allreduce(local, op=MPI.SUM))

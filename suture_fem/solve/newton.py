@@ -50,7 +50,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from suture_fem.physics.effects.friction import nodal_terms, settle, slip_laws
+from suture_fem.physics.effects.friction import full_residual, nodal_terms, settle, slip_laws
 from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.schema import SolverSection
 from suture_fem.solve import inertia, jacobian, linear
@@ -246,12 +246,7 @@ class NewtonSolver(Linearised):
 
     def _assemble_full_residual(self) -> None:
         """R at the current state into ``b_full`` (owned entries), the nodal terms (friction, contact) included."""
-        with self.b_full.localForm() as b_local:
-            b_local.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(self.b_full, self.F_form)
-        self.b_full.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        for terms in self.nodal:
-            terms.add_residual(compat.function_vector(self.physics.state), self.b_full)
+        full_residual(self.physics, self.b_full)
 
     def _objective(self, snes: Any, x: Any) -> float:
         if not self._trial_admissible(x):

@@ -312,6 +312,24 @@ def nodal_terms(problem: Any) -> list[Any]:
     return [t for t in (getattr(problem, "friction", None), getattr(problem, "cone_contact", None)) if t is not None]
 
 
+def full_residual(problem: Any, b: Any = None) -> Any:
+    """R at ``problem``'s current state, as the Newton solver solves it (collective).
+
+    The residual form, then every nodal term's part (:func:`nodal_terms`); owned entries assembled. Into ``b``
+    (zeroed first), or a new vector.
+    """
+    form = problem.form("residual")
+    if b is None:
+        b = dolfinx.fem.petsc.create_vector(form)
+    with b.localForm() as local:
+        local.set(0.0)
+    dolfinx.fem.petsc.assemble_vector(b, form)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    for terms in nodal_terms(problem):
+        terms.add_residual(compat.function_vector(problem.state), b)
+    return b
+
+
 def slip_laws(problem: Any) -> list[SlipBound]:
     """The nodal terms updated between Newton solves: a Coulomb slip bound (mu > 0), an augmented Lagrangian."""
     return [t for t in nodal_terms(problem) if t.mu > 0.0 or getattr(t, "augmented", False)]

@@ -16,7 +16,7 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
   (``pc_type = cholesky``; half the memory of LU, about 15 % less time per factorisation on the
   paper scene, benchmarks/speed.py). Mixed pressure rows and stiffness-proportional damping are not
   symmetric; those scenes, and every fallback solver, use LU (:func:`~suture_fem.solve.linear.factor_type`).
-* Energy line search (degree 1): :func:`~suture_fem.solve.potential.potential_form`.
+* Energy line search: :func:`~suture_fem.solve.potential.potential_form`.
 * Inertia correction (``solver.inertia_correction``, with LDL^T): a Jacobian with negative pivots is
   shifted until it has none (:mod:`suture_fem.solve.inertia`): the Newton step of a positive definite
   model, where the indefinite one made the line search creep.
@@ -60,7 +60,7 @@ from suture_fem.solve.memo import IterateMemo
 from suture_fem.solve.potential import potential_form
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
-from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale
+from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale, stall_iterations
 from suture_fem.support import compat, signals
 from suture_fem.support.errors import Interrupted
 
@@ -117,7 +117,8 @@ class NewtonSolver(Linearised):
         self.line_search = str(solver_options.petsc_options.get("snes_linesearch_type", "bt"))
         self.stops = StopTests(lambda: self.objective_form is not None and self.line_search == "bt",
                                lambda: force_scale(self.physics),
-                               float(solver_options.petsc_options.get("snes_divergence_tolerance", 1e4)))
+                               float(solver_options.petsc_options.get("snes_divergence_tolerance", 1e4)),
+                               stall_iterations(problem))
         self.snes = PETSc.SNES().create(problem.comm)
         self.prefix = f"suture_{id(self)}_"
         self._configure()

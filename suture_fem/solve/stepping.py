@@ -389,11 +389,11 @@ def advice(physics: Physics, cause: StopCause) -> str:
     if effects is not None and effects.unilateral_thread and cause in (StopCause.NEWTON_DIVERGENCE,
                                                                       StopCause.INVERTED_ELEMENT):
         if effects.frictional_thread:
-            return ('; a Coulomb thread is carried furthest by mesh.degree = 1 with loading.control = "displacement" '
-                    "(the paper scene with four cones to 4.1 N; at P2 it stops below 0.3 N: docs/contact.md)")
+            return ('; a Coulomb thread reaches 4 N at P2 under force control (paper scene, mu 0.1, 1 and 4 cones), at '
+                    'P1 with loading.control = "displacement" (4 cones, 4.1 N); at P2 that stops 1 cone at 0.22 N')
         return ("; the tissue opens off a frictionless thread just ahead of a cone's apex, where it stays tied to the "
-                "cone, and that corner distorts (CONTACT.md: CalculiX stops there too; docs/contact.md): mesh.degree "
-                '= 1 carries the paper scene to 4 N, or use effects.thread_interface = "sliding"')
+                "cone, and that corner distorts (CONTACT.md: CalculiX stops there too; docs/contact.md): the paper "
+                'scene reaches 4 N under force control at P1 and P2, or use effects.thread_interface = "sliding"')
     if effects is None or effects.mixed or cause not in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT):
         return ""
     return ('; if the tissue is nearly incompressible, set effects.incompressibility = "mixed" (Taylor-Hood '

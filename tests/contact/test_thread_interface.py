@@ -173,6 +173,23 @@ def test_a_frictionless_thread_the_tissue_may_leave_opens_but_is_not_entered(sli
     assert rec["thread_end_displacement_mm"] >= bilateral["thread_end_displacement_mm"] * (1 - 1e-9)
 
 
+@pytest.mark.long  # one P2 ramp to 4 N, about 45 s; benchmarks/long_tests.py
+def test_a_frictionless_thread_at_p2_carries_the_pull_to_4_n(tmp_path_factory, unilateral):
+    """P2 thread contact: the energy's line search without the stall rule (it stopped at 1.82 N, docs/contact.md)."""
+    res = _run(tmp_path_factory, "frictionless_p2",
+               [*SCENE, "effects.thread_interface=\"frictionless\"", "mesh.degree=2", "loading.force_n=4"])
+    assert res["status"] == "converged" and res["scene"]["mesh"]["degree"] == 2
+    for rec in res["at_forces"]:
+        shares = rec["load_share_n"]
+        assert abs(shares["thread"]) < 1e-9 * rec["force_n"]
+        assert sum(shares.values()) == pytest.approx(rec["force_n"], rel=1e-9)
+        assert rec["free_residual_norm_n"] <= 1e-6 * rec["force_n"]
+    assert res["at_forces"][-1]["force_n"] == pytest.approx(4.0)
+    # the same scene at P1, 1 N: P2 locks less, so it lifts a little more (4.620 against 4.557 mm measured)
+    p1, p2 = unilateral["at_forces"][-1], next(r for r in res["at_forces"] if r["force_n"] == pytest.approx(1.0))
+    assert p1["usum_mm"] <= p2["usum_mm"] <= 1.05 * p1["usum_mm"]
+
+
 def _coulomb(mu: float) -> list[str]:
     return [*SCENE, "effects.thread_interface=\"coulomb\"", f"effects.friction_coefficient={mu}"]
 

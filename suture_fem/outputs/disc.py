@@ -39,6 +39,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from suture_fem.outputs.candidates import CANDIDATES, spread, top_points
 from suture_fem.outputs.disc_cells import overlap_averages, overlap_climbs
 from suture_fem.outputs.disc_points import DiscPoints, Prepared
 from suture_fem.support import compat
@@ -65,7 +66,7 @@ MAX_MOVES = 20
 #: thousands of larger ones (1 cone with a 0.04 mm fillet meshed with 128 elements along it: every one of
 #: the 2,400 largest point values was at the fillet and the apex rim, and the thread exit's disc, the
 #: largest strain average, was never a candidate: 1.249 instead of 1.381).
-CANDIDATES, STARTS = 48, 3
+STARTS = 3
 
 #: A function of disc centres (k, 2) returning which of them the search may use (a boolean mask (k,)).
 Allowed = Callable[[np.ndarray], np.ndarray]
@@ -230,7 +231,7 @@ def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ..
         if allowed is not None:
             group = group[allowed(group)]
         if len(group):
-            chosen.append(group[np.argsort(-disc_averages(field, group, radius), kind="stable")[:STARTS]])  # allowed
+            chosen.append(group[np.argsort(-_start_averages(field, group, radius, known), kind="stable")[:STARTS]])
     climbs: list[np.ndarray] = []  # a start within R of an earlier one would climb the same hill: skipped
     for s in np.concatenate(chosen) if chosen else ():
         if all(np.hypot(*(s - c)) >= radius for c in climbs):
@@ -247,6 +248,16 @@ def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ..
     if exact:  # the overlaps' averages under their own keys: the rule's are keyed by integers
         return DiscMax(*overlap_climbs(field, ends, radius, allowed, known.setdefault("overlap", {})))
     return DiscMax(best_value, best)
+
+
+def _start_averages(field: CellField, group: np.ndarray, radius: float, known: dict) -> np.ndarray:
+    """:func:`disc_averages` at candidate centres (k, 2), each computed once per ``known`` (under its bytes)."""
+    ranked = known.setdefault("starts", {})
+    keys = [c.tobytes() for c in group]
+    new = [i for i, k in enumerate(keys) if k not in ranked]
+    if new:  # each centre's average is its own: the same in any batch
+        ranked.update(zip((keys[i] for i in new), disc_averages(field, group[new], radius).tolist()))
+    return np.array([ranked[k] for k in keys])
 
 
 def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: Allowed | None,
@@ -289,48 +300,6 @@ def _climb(field: CellField, centre: np.ndarray, value: float, h: float, half: i
         if 0 < i < 2 * half and 0 < m < 2 * half:  # inside the window: this level is done
             break
     return value, centre
-
-
-def top_points(comm: Any, values: np.ndarray, xy: np.ndarray, separation: float, count: int = CANDIDATES) -> np.ndarray:
-    """The ``count`` largest point values over all ranks, at least ``separation`` apart: their (k, 2) positions."""
-    order = _largest(values, 50 * count)
-    local = np.column_stack([values[order], xy[order]]) if len(order) else np.zeros((0, 3))
-    merged = np.concatenate(comm.allgather(local))
-    merged = merged[np.lexsort((-merged[:, 2], -merged[:, 1], -merged[:, 0]))]  # largest first, ties by position
-    return spread(merged[:, 1:], separation, count)
-
-
-def _largest(values: np.ndarray, n: int) -> np.ndarray:
-    """Indices of the ``n`` largest values (in any order): the set ``np.argsort(values)[::-1][:n]`` takes.
-
-    A partition, not a sort (the caller sorts what every rank sends); where a tie at the n-th value
-    leaves the set to the sort's order, or with NaN, the sort's own choice is taken.
-    """
-    if len(values) <= n:
-        return np.argsort(values)[::-1]
-    top = np.argpartition(values, len(values) - n)[len(values) - n:]
-    cut = values[top].min()
-    if np.isfinite(cut) and np.count_nonzero(values >= cut) == n and not np.isnan(values).any():
-        return top
-    return np.argsort(values)[::-1][:n]
-
-
-def spread(candidates: np.ndarray, separation: float, count: int) -> np.ndarray:
-    """The first ``count`` of candidates (k, 2), in order, each at least ``separation`` from those taken before it.
-
-    A candidate closer than ``separation`` to one taken is struck out when that one is taken, so each
-    is compared once with each taken one, and only the candidates still open are compared: the choice
-    of a loop over the candidates, at numpy's speed.
-    """
-    candidates = np.asarray(candidates, dtype=float).reshape(-1, 2)
-    r, z = candidates[:, 0].copy(), candidates[:, 1].copy()
-    open_ = np.arange(len(candidates))
-    taken: list[int] = []
-    while len(taken) < count and len(open_):
-        i, rest = int(open_[0]), open_[1:]
-        taken.append(i)
-        open_ = rest[np.hypot(r[rest] - r[i], z[rest] - z[i]) >= separation]
-    return candidates[taken].reshape(-1, 2)
 
 
 #: The coarse view's grid spacing (fraction of R) and its stencil: the offsets (in spacings) within R.

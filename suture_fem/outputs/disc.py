@@ -236,13 +236,12 @@ def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ..
     for s in np.concatenate(chosen) if chosen else ():
         if all(np.hypot(*(s - c)) >= radius for c in climbs):
             climbs.append(s)
-    best_value, best, ends = -np.inf, None, []
-    for s in climbs:
-        centre = np.asarray(s, dtype=float)
-        value = -np.inf
-        for spacing, half in GRID_LEVELS[:RULE_LEVELS_LEADING] if exact else GRID_LEVELS:
-            value, centre = _climb(field, centre, value, spacing * radius, half, radius, allowed, known)
-        ends.append(centre)
+    ends = [np.asarray(s, dtype=float) for s in climbs]
+    values = [-np.inf] * len(ends)
+    for spacing, half in GRID_LEVELS[:RULE_LEVELS_LEADING] if exact else GRID_LEVELS:
+        _climbs(field, ends, values, spacing * radius, half, radius, allowed, known)
+    best_value, best = -np.inf, None
+    for value, centre in zip(values, ends):  # the first of equal maxima, in the climbs' order
         if value > best_value:
             best_value, best = value, [float(c) for c in centre]
     if exact:  # the overlaps' averages under their own keys: the rule's are keyed by integers
@@ -270,10 +269,11 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
     else:
         keys = [tuple(k) for k in index.tolist()]
     ok = allowed(grid).tolist() if allowed is not None else None
-    if ok is None:  # the same on every rank: the same keys
-        new = [i for i, k in enumerate(keys) if k not in known]
-    else:
-        new = [i for i, k in enumerate(keys) if ok[i] and k not in known]
+    first: dict = {}  # each key once (the grids of several climbs overlap), at its first index
+    for i, k in enumerate(keys):  # the same on every rank: the same keys
+        if (ok is None or ok[i]) and k not in known:
+            first.setdefault(k, i)
+    new = list(first.values())
     if new:
         for i, v in zip(new, disc_averages(field, grid[new], radius).tolist()):
             known[keys[i]] = v
@@ -283,23 +283,35 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
     return out
 
 
-def _climb(field: CellField, centre: np.ndarray, value: float, h: float, half: int, radius: float,
-           allowed: Allowed | None, known: dict) -> tuple[float, np.ndarray]:
-    """The best centre of a (2 half + 1)^2 grid of spacing h fixed in space, moved until the best is inside it."""
+def _climbs(field: CellField, centres: list[np.ndarray], values: list[float], h: float, half: int, radius: float,
+            allowed: Allowed | None, known: dict) -> None:
+    """Each climb's best centre of a (2 half + 1)^2 grid of spacing h fixed in space, moved until the best is inside it.
+
+    ``centres`` and ``values`` (each climb's best so far) are updated in place. The climbs move in step: one
+    batch of averages per move of all of them (each centre's average is its own, whatever batch computes
+    it), each climb's moves its own, as if climbed alone.
+    """
     k = np.arange(-half, half + 1) * h
     k_r, k_z = np.repeat(k, len(k)), np.tile(k, len(k))  # the (2 half + 1)^2 offsets, r slowest
+    active = list(range(len(centres)))
     for _ in range(MAX_MOVES):
-        base = np.round(centre / h) * h  # grid points fixed in space, not on the mesh
-        grid = np.column_stack([base[0] + k_r, base[1] + k_z])
-        avgs = _grid_averages(field, grid, radius, allowed, known)
-        j = int(np.argmax(avgs))
-        if not avgs[j] > value:
+        if not active:
             break
-        value, centre = float(avgs[j]), grid[j]
-        i, m = divmod(j, 2 * half + 1)
-        if 0 < i < 2 * half and 0 < m < 2 * half:  # inside the window: this level is done
-            break
-    return value, centre
+        grids = []
+        for i in active:
+            base = np.round(centres[i] / h) * h  # grid points fixed in space, not on the mesh
+            grids.append(np.column_stack([base[0] + k_r, base[1] + k_z]))
+        every = _grid_averages(field, np.concatenate(grids), radius, allowed, known).reshape(len(active), -1)
+        still = []
+        for i, grid, avgs in zip(active, grids, every):
+            j = int(np.argmax(avgs))
+            if not avgs[j] > values[i]:
+                continue
+            values[i], centres[i] = float(avgs[j]), grid[j]
+            row, col = divmod(j, 2 * half + 1)
+            if not (0 < row < 2 * half and 0 < col < 2 * half):  # on the window's edge: move on
+                still.append(i)
+        active = still
 
 
 #: The coarse view's grid spacing (fraction of R) and its stencil: the offsets (in spacings) within R.

@@ -34,8 +34,9 @@ import numpy as np
 
 from suture_fem.outputs.ball import ball_rule, point_values, weighted_averages
 from suture_fem.outputs.ball_cells import CellOverlap, reduced_averages
+from suture_fem.outputs.candidates import _largest
 from suture_fem.outputs.climb import climb
-from suture_fem.outputs.disc import DiscMax, _largest
+from suture_fem.outputs.disc import DiscMax
 from suture_fem.support import compat
 
 #: Candidates of each kind (R apart) and how many of each kind, ranked by their own ball average, are climbed.

@@ -40,22 +40,23 @@ def climb(starts: list[np.ndarray], levels: Sequence[float], max_moves: int, uni
         for _ in range(max_moves):
             if not active:
                 break
-            grids = {}
-            for i in active:
-                grid = np.round(at[i] / step).astype(np.int64) * step + steps * step
-                grid = fold(grid) if fold is not None else grid
-                ok = allowed(grid * unit) if allowed is not None else np.ones(len(grid), dtype=bool)
-                grids[i] = (grid, [tuple(k) for k in grid.tolist()], ok)
-            new = {k: g[n] for g, keys, ok in grids.values() for n, k in enumerate(keys) if ok[n] and k not in known}
+            base = np.round(np.array([at[i] for i in active]) / step).astype(np.int64) * step
+            grid = (base[:, None, :] + steps[None] * step).reshape(-1, steps.shape[1])  # each climb's grid in turn
+            grid = fold(grid) if fold is not None else grid
+            ok = (allowed(grid * unit) if allowed is not None else np.ones(len(grid), dtype=bool)).tolist()
+            keys = list(map(tuple, grid.tolist()))
+            new: dict = {}  # each key not known once, at its first index
+            for n, k in enumerate(keys):
+                if ok[n] and k not in known:
+                    new.setdefault(k, n)
             if new:
-                known.update(zip(new, evaluate(np.array(list(new.values())) * unit).tolist()))
+                known.update(zip(new, evaluate(grid[list(new.values())] * unit).tolist()))
+            avgs = np.array([known[k] if o else -np.inf for k, o in zip(keys, ok)]).reshape(len(active), -1)
             still = []
-            for i in active:
-                grid, keys, ok = grids[i]
-                avgs = np.array([known[k] if ok[n] else -np.inf for n, k in enumerate(keys)])
-                j = int(np.argmax(avgs))
-                if avgs[j] > value[i]:
-                    value[i], at[i] = float(avgs[j]), grid[j]
+            for i, j, row, g in zip(active, np.argmax(avgs, axis=1).tolist(), avgs, grid.reshape(len(active), -1,
+                                                                                             grid.shape[1])):
+                if row[j] > value[i]:
+                    value[i], at[i] = float(row[j]), g[j]
                     if j != own:  # a neighbour was better: move on
                         still.append(i)
             active = still

@@ -22,8 +22,8 @@ on every mesh and every partition, which a continuous optimiser's path would not
 
 The rule only leads the search: the search maximises over centres and so seeks out centres whose rule
 points fall on a rim's small hot cells (on the paper scene's sharp rims the rule read the near-cone stress
-average 23-52 % above the exact one). The rule's climbs stop at R/16, and from each one's best centre a
-pattern search on the exact average of the fitted field, from each triangle's overlap with the disc
+average 23-52 % above the exact one). The rule's climbs stop at R/4 (its first level), and from each
+one's best centre a pattern search on the exact average of the fitted field, from each triangle's overlap with the disc
 (:mod:`suture_fem.outputs.disc_cells`), gives the value and centre reported (:func:`max_disc_average`).
 
 Collective: every rank locates the rule's points in its owned cells, the values are reduced with MPI
@@ -39,6 +39,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from suture_fem.outputs.candidates import CANDIDATES, spread, top_points
 from suture_fem.outputs.disc_cells import overlap_averages, overlap_climbs
 from suture_fem.outputs.disc_points import DiscPoints, Prepared
 from suture_fem.support import compat
@@ -50,8 +51,11 @@ __all__ = ["CellField", "DiscMax", "DiscPoints", "coarse_starts", "disc_averages
 RADIAL_POINTS, ANGULAR_POINTS = 6, 24
 #: Grid search: (spacing, half-width in spacings) of each level, as fractions of the radius.
 GRID_LEVELS = ((1 / 4, 4), (1 / 16, 4), (1 / 64, 4))
-#: How many of the levels the point rule climbs when the exact average ends the search (:func:`max_disc_average`).
-RULE_LEVELS_LEADING = 2
+#: How many of the levels the point rule climbs when the exact average ends the search (:func:`max_disc_average`):
+#: the first (R/4) only; the exact pattern search's own levels (R/4 to R/64) place the centre. Climbing the rule's
+#: R/16 level too found the same maxima and centres, bit for bit, on the paper scene (1 and 4 cones, P1 and P2)
+#: at more CPU (docs/api.md).
+RULE_LEVELS_LEADING = 1
 #: Largest number of times a level's grid moves toward a better centre on its edge.
 MAX_MOVES = 20
 #: Largest point values of a region taken as candidate centres (at least R apart), and how many of them,
@@ -65,7 +69,7 @@ MAX_MOVES = 20
 #: thousands of larger ones (1 cone with a 0.04 mm fillet meshed with 128 elements along it: every one of
 #: the 2,400 largest point values was at the fillet and the apex rim, and the thread exit's disc, the
 #: largest strain average, was never a candidate: 1.249 instead of 1.381).
-CANDIDATES, STARTS = 48, 3
+STARTS = 3
 
 #: A function of disc centres (k, 2) returning which of them the search may use (a boolean mask (k,)).
 Allowed = Callable[[np.ndarray], np.ndarray]
@@ -230,23 +234,32 @@ def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ..
         if allowed is not None:
             group = group[allowed(group)]
         if len(group):
-            chosen.append(group[np.argsort(-disc_averages(field, group, radius), kind="stable")[:STARTS]])  # allowed
+            chosen.append(group[np.argsort(-_start_averages(field, group, radius, known), kind="stable")[:STARTS]])
     climbs: list[np.ndarray] = []  # a start within R of an earlier one would climb the same hill: skipped
     for s in np.concatenate(chosen) if chosen else ():
         if all(np.hypot(*(s - c)) >= radius for c in climbs):
             climbs.append(s)
-    best_value, best, ends = -np.inf, None, []
-    for s in climbs:
-        centre = np.asarray(s, dtype=float)
-        value = -np.inf
-        for spacing, half in GRID_LEVELS[:RULE_LEVELS_LEADING] if exact else GRID_LEVELS:
-            value, centre = _climb(field, centre, value, spacing * radius, half, radius, allowed, known)
-        ends.append(centre)
+    ends = [np.asarray(s, dtype=float) for s in climbs]
+    values = [-np.inf] * len(ends)
+    for spacing, half in GRID_LEVELS[:RULE_LEVELS_LEADING] if exact else GRID_LEVELS:
+        _climbs(field, ends, values, spacing * radius, half, radius, allowed, known)
+    best_value, best = -np.inf, None
+    for value, centre in zip(values, ends):  # the first of equal maxima, in the climbs' order
         if value > best_value:
             best_value, best = value, [float(c) for c in centre]
     if exact:  # the overlaps' averages under their own keys: the rule's are keyed by integers
         return DiscMax(*overlap_climbs(field, ends, radius, allowed, known.setdefault("overlap", {})))
     return DiscMax(best_value, best)
+
+
+def _start_averages(field: CellField, group: np.ndarray, radius: float, known: dict) -> np.ndarray:
+    """:func:`disc_averages` at candidate centres (k, 2), each computed once per ``known`` (under its bytes)."""
+    ranked = known.setdefault("starts", {})
+    keys = [c.tobytes() for c in group]
+    new = [i for i, k in enumerate(keys) if k not in ranked]
+    if new:  # each centre's average is its own: the same in any batch
+        ranked.update(zip((keys[i] for i in new), disc_averages(field, group[new], radius).tolist()))
+    return np.array([ranked[k] for k in keys])
 
 
 def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: Allowed | None,
@@ -259,10 +272,11 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
     else:
         keys = [tuple(k) for k in index.tolist()]
     ok = allowed(grid).tolist() if allowed is not None else None
-    if ok is None:  # the same on every rank: the same keys
-        new = [i for i, k in enumerate(keys) if k not in known]
-    else:
-        new = [i for i, k in enumerate(keys) if ok[i] and k not in known]
+    first: dict = {}  # each key once (the grids of several climbs overlap), at its first index
+    for i, k in enumerate(keys):  # the same on every rank: the same keys
+        if (ok is None or ok[i]) and k not in known:
+            first.setdefault(k, i)
+    new = list(first.values())
     if new:
         for i, v in zip(new, disc_averages(field, grid[new], radius).tolist()):
             known[keys[i]] = v
@@ -272,65 +286,35 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
     return out
 
 
-def _climb(field: CellField, centre: np.ndarray, value: float, h: float, half: int, radius: float,
-           allowed: Allowed | None, known: dict) -> tuple[float, np.ndarray]:
-    """The best centre of a (2 half + 1)^2 grid of spacing h fixed in space, moved until the best is inside it."""
+def _climbs(field: CellField, centres: list[np.ndarray], values: list[float], h: float, half: int, radius: float,
+            allowed: Allowed | None, known: dict) -> None:
+    """Each climb's best centre of a (2 half + 1)^2 grid of spacing h fixed in space, moved until the best is inside it.
+
+    ``centres`` and ``values`` (each climb's best so far) are updated in place. The climbs move in step: one
+    batch of averages per move of all of them (each centre's average is its own, whatever batch computes
+    it), each climb's moves its own, as if climbed alone.
+    """
     k = np.arange(-half, half + 1) * h
     k_r, k_z = np.repeat(k, len(k)), np.tile(k, len(k))  # the (2 half + 1)^2 offsets, r slowest
+    active = list(range(len(centres)))
     for _ in range(MAX_MOVES):
-        base = np.round(centre / h) * h  # grid points fixed in space, not on the mesh
-        grid = np.column_stack([base[0] + k_r, base[1] + k_z])
-        avgs = _grid_averages(field, grid, radius, allowed, known)
-        j = int(np.argmax(avgs))
-        if not avgs[j] > value:
+        if not active:
             break
-        value, centre = float(avgs[j]), grid[j]
-        i, m = divmod(j, 2 * half + 1)
-        if 0 < i < 2 * half and 0 < m < 2 * half:  # inside the window: this level is done
-            break
-    return value, centre
-
-
-def top_points(comm: Any, values: np.ndarray, xy: np.ndarray, separation: float, count: int = CANDIDATES) -> np.ndarray:
-    """The ``count`` largest point values over all ranks, at least ``separation`` apart: their (k, 2) positions."""
-    order = _largest(values, 50 * count)
-    local = np.column_stack([values[order], xy[order]]) if len(order) else np.zeros((0, 3))
-    merged = np.concatenate(comm.allgather(local))
-    merged = merged[np.lexsort((-merged[:, 2], -merged[:, 1], -merged[:, 0]))]  # largest first, ties by position
-    return spread(merged[:, 1:], separation, count)
-
-
-def _largest(values: np.ndarray, n: int) -> np.ndarray:
-    """Indices of the ``n`` largest values (in any order): the set ``np.argsort(values)[::-1][:n]`` takes.
-
-    A partition, not a sort (the caller sorts what every rank sends); where a tie at the n-th value
-    leaves the set to the sort's order, or with NaN, the sort's own choice is taken.
-    """
-    if len(values) <= n:
-        return np.argsort(values)[::-1]
-    top = np.argpartition(values, len(values) - n)[len(values) - n:]
-    cut = values[top].min()
-    if np.isfinite(cut) and np.count_nonzero(values >= cut) == n and not np.isnan(values).any():
-        return top
-    return np.argsort(values)[::-1][:n]
-
-
-def spread(candidates: np.ndarray, separation: float, count: int) -> np.ndarray:
-    """The first ``count`` of candidates (k, 2), in order, each at least ``separation`` from those taken before it.
-
-    A candidate closer than ``separation`` to one taken is struck out when that one is taken, so each
-    is compared once with each taken one, and only the candidates still open are compared: the choice
-    of a loop over the candidates, at numpy's speed.
-    """
-    candidates = np.asarray(candidates, dtype=float).reshape(-1, 2)
-    r, z = candidates[:, 0].copy(), candidates[:, 1].copy()
-    open_ = np.arange(len(candidates))
-    taken: list[int] = []
-    while len(taken) < count and len(open_):
-        i, rest = int(open_[0]), open_[1:]
-        taken.append(i)
-        open_ = rest[np.hypot(r[rest] - r[i], z[rest] - z[i]) >= separation]
-    return candidates[taken].reshape(-1, 2)
+        grids = []
+        for i in active:
+            base = np.round(centres[i] / h) * h  # grid points fixed in space, not on the mesh
+            grids.append(np.column_stack([base[0] + k_r, base[1] + k_z]))
+        every = _grid_averages(field, np.concatenate(grids), radius, allowed, known).reshape(len(active), -1)
+        still = []
+        for i, grid, avgs in zip(active, grids, every):
+            j = int(np.argmax(avgs))
+            if not avgs[j] > values[i]:
+                continue
+            values[i], centres[i] = float(avgs[j]), grid[j]
+            row, col = divmod(j, 2 * half + 1)
+            if not (0 < row < 2 * half and 0 < col < 2 * half):  # on the window's edge: move on
+                still.append(i)
+        active = still
 
 
 #: The coarse view's grid spacing (fraction of R) and its stencil: the offsets (in spacings) within R.

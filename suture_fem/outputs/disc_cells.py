@@ -54,6 +54,9 @@ class DiscOverlap:
         self.whole = (1.0 + np.eye(3)) / 12.0  # int_T phi_k phi_l dA / |T|
         self.kept: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self.pairs = 0
+        self.sums_kept: dict[bytes, tuple[np.ndarray, ...]] = {}  # per batch of centres: see sums
+        self.batched = 0
+        self.held: dict[bytes, float] = {}  # per centre: 1.0 where one of the cells holds it, else 0.0
 
     def weights(self, centres: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per centre (k, 2): (cells, vertex weights (m, 3) with a positive sum) of its disc: see the module.
@@ -97,17 +100,42 @@ class DiscOverlap:
         return 2.0 * np.pi * w
 
     def sums(self, vertex_values: np.ndarray, centres: np.ndarray) -> np.ndarray:
-        """(m, 2): this rank's int f 2 pi r dA and int 2 pi r dA per disc, from the cells' vertex values (n, 3)."""
-        parts = self.weights(centres)
-        counts = np.array([len(cells) for cells, _ in parts])
-        out = np.zeros((len(centres), 2))
-        if counts.sum():
-            w = np.concatenate([w for _, w in parts])
-            per_cell = np.stack([np.einsum("nk,nk->n", vertex_values[np.concatenate([c for c, _ in parts])], w),
-                                 w.sum(axis=1)], axis=1)
+        """(m, 2): this rank's int f 2 pi r dA and int 2 pi r dA per disc, from the cells' vertex values (n, 3).
+
+        A batch of centres asked for again (the same bytes) reuses its cells' weights joined, their sums per
+        cell and the first cell of each centre, kept up to :data:`KEPT_PAIRS` (cell, disc) pairs in all.
+        """
+        key = centres.tobytes()
+        batch = self.sums_kept.get(key)
+        if batch is None:
+            parts = self.weights(centres)
+            counts = np.array([len(cells) for cells, _ in parts])
             has = counts > 0  # reduceat: each centre's cells, from its first (none: skipped)
-            out[has] = np.add.reduceat(per_cell, (np.cumsum(counts) - counts)[has], axis=0)
+            cells = np.concatenate([c for c, _ in parts]) if parts else np.zeros(0, np.int32)
+            w = np.concatenate([w for _, w in parts]) if parts else np.zeros((0, 3))
+            batch = cells, w, w.sum(axis=1), has, (np.cumsum(counts) - counts)[has]
+            if self.batched + len(cells) <= KEPT_PAIRS:
+                self.sums_kept[key], self.batched = batch, self.batched + len(cells)
+        cells, w, w_sum, has, first = batch
+        out = np.zeros((len(centres), 2))
+        if len(cells):
+            per_cell = np.stack([np.einsum("nk,nk->n", vertex_values[cells], w), w_sum], axis=1)
+            out[has] = np.add.reduceat(per_cell, first, axis=0)
         return out
+
+    def holds(self, centres: np.ndarray, locate: Any) -> np.ndarray:
+        """(m,): 1.0 where one of the cells holds the centre (``locate``: the cells' locator), else 0.0; kept."""
+        keys = [c.tobytes() for c in centres]
+        new = [i for i, key in enumerate(keys) if key not in self.held]
+        found: dict[bytes, float] = {}
+        if new:
+            idx, _ = locate(np.column_stack([centres[new], np.zeros(len(new))]), keep=False)
+            inside = np.zeros(len(new))
+            inside[idx] = 1.0
+            found = dict(zip((keys[i] for i in new), inside.tolist()))
+            if len(self.held) < KEPT_PAIRS:
+                self.held.update(found)
+        return np.array([found[key] if key in found else self.held[key] for key in keys])
 
 
 def cut_moments(x: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -184,8 +212,7 @@ def overlap_averages(field: Any, centres: np.ndarray, radius: float,
     if len(field.cells):
         overlap, values = field_overlap(field, radius)
         both[:, :2] = overlap.sums(values, c)
-        idx, _ = field.locate(np.column_stack([c, np.zeros(len(c))]), keep=False)
-        both[idx, 2] = 1.0
+        both[:, 2] = overlap.holds(c, field.locate)
     out[ok] = reduced_averages(field.comm, both)
     return out
 

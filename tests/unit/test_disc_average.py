@@ -200,7 +200,7 @@ def test_spread_takes_candidates_in_order_each_far_enough_from_those_taken_befor
 
 
 def test_the_largest_values_by_partition_are_the_set_the_sort_takes():
-    from suture_fem.outputs.disc import _largest
+    from suture_fem.outputs.candidates import _largest
 
     rng = np.random.default_rng(5)
     for trial in range(30):

@@ -63,15 +63,15 @@ def displacement_start(physics: Physics, scene: Scene, result: RampResult, stepp
     newton = NewtonSolver.of(physics, scene.solver, result.timings)
     its0 = result.newton_iterations
     path = StartRamp(physics, scene, force_n)
+    steps = stepper(path, newton, result, on_converged, fraction)
     try:
-        stepper(path, newton, result, on_converged, fraction).run()
-        reached = path.force(path.end)
-        d_mm = path.end * path.d_max / MM
-    finally:
+        steps.run()
+    finally:  # the force ramp's unknowns back, its traction that of the state the start ended in (a stop's record)
+        reached, d_mm = path.force(steps.s), steps.s * path.d_max / MM
         newton.destroy()
         physics.unknowns, physics.control = own
         moved.control.destroy()
-        physics.set_force(0.0)
+        physics.set_force(reached)
     if reached < force_n:
         raise SolveStopped.with_history(result, cause=StopCause.NEWTON_DIVERGENCE, load_reached=0.0,
                                         attempted=force_n,

@@ -53,6 +53,10 @@ class Diagnosis:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
+#: SolverRecord's entries written only where the ramp took them.
+_OPTIONAL = ("leaps", "start")
+
+
 @dataclass(frozen=True)
 class SolverRecord:
     """The solver's bookkeeping of a load ramp (from its history), as written to results.json."""
@@ -68,6 +72,8 @@ class SolverRecord:
     residual_floor_n: float
     solves_at_residual_floor: int
     leaps: int = 0
+    #: the path-following start (solve/start.py), only where the ramp took one
+    start: dict[str, Any] | None = None
 
     @classmethod
     def from_history(cls, history: Any) -> SolverRecord:
@@ -84,11 +90,12 @@ class SolverRecord:
             residual_floor_n=history.residual_floor_n,
             solves_at_residual_floor=history.floor_above_atol,
             leaps=getattr(history, "leaps", 0),
+            start=getattr(history, "start", None),
         )
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON form (top-level keys of results.json; ``leaps`` only where the ramp took one)."""
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "leaps" or self.leaps}
+        """JSON form (top-level keys of results.json; ``leaps`` and ``start`` only where the ramp took them)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in _OPTIONAL or getattr(self, f.name)}
 
 
 @dataclass(eq=False)
@@ -141,8 +148,9 @@ class Results(Mapping):
             latest.update({k: v for k, v in record.items() if k != "force_n"})
         for name in latest:  # the last report's entries, repeated at top level
             rest.pop(name, None)
-        names = [f.name for f in fields(SolverRecord) if f.name != "leaps"]  # leaps: written only when taken
-        solver = (SolverRecord(**{n: rest.pop(n) for n in names}, leaps=rest.pop("leaps", 0))
+        names = [f.name for f in fields(SolverRecord) if f.name not in _OPTIONAL]  # those: written only when taken
+        solver = (SolverRecord(**{n: rest.pop(n) for n in names}, leaps=rest.pop("leaps", 0),
+                               start=rest.pop("start", None))
                   if all(n in rest for n in names) else None)
         diagnosis = rest.pop("diagnosis", None)
         return cls(effects=rest.pop("effects"), scene=rest.pop("scene"), status=rest.pop("status"),

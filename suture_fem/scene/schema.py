@@ -80,6 +80,7 @@ class LoadingSection(_Section):
     control: str = key(Rule("str", choices=("force", "displacement")))
     displacement_mm: float = key(_pos(100.0), MM)
     report_displacements_mm: tuple[float, ...] = key(Rule("floats", lo=0.0, hi=100.0, lo_open=True), MM)
+    start_force_n: float = key(_pos(1000.0, lo_open=False), N)
     ramp_s: float = key(_pos(1e6), S)
     hold_s: float = key(_pos(1e6, lo_open=False), S)
 

@@ -10,6 +10,7 @@ with which value; it is logged at every cutback and becomes ``diagnosis.detail``
 from __future__ import annotations
 
 from suture_fem.physics.materials import Limit
+from suture_fem.physics.problem import Physics
 from suture_fem.solve.newton import NewtonSolver
 from suture_fem.support.errors import StopCause
 
@@ -45,3 +46,28 @@ def failure_text(newton: NewtonSolver, reason: str, its: int) -> str:
     if newton.linear_failure():
         text += f"; linear solver {newton.linear_solver} failed"
     return text
+
+
+def advice(physics: Physics, cause: StopCause) -> str:
+    """What to change, for a stop the plain displacement formulation causes ('' when there is no advice).
+
+    A nearly incompressible tissue locks the displacement element: Newton diverges or elements invert
+    under a load the mixed formulation carries (docs/hardcases.md: K x10-x1000 at P2).
+    """
+    effects = getattr(physics, "effects", None)
+    stuck = cause in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT)
+    if effects is not None and effects.cone_contact and stuck and getattr(physics, "degree", 1) == 2:
+        return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
+                "cone reaches about 1 N, four stop in their first step (docs/contact.md: P2 cones)")
+    if effects is not None and effects.unilateral_thread and cause in (StopCause.NEWTON_DIVERGENCE,
+                                                                      StopCause.INVERTED_ELEMENT):
+        if effects.frictional_thread:
+            return ('; a Coulomb thread reaches 4 N at P2 under force control (paper scene, mu 0.1, 1 and 4 cones), at '
+                    'P1 with loading.control = "displacement" (4 cones, 4.1 N); at P2 that stops 1 cone at 0.22 N')
+        return ("; the tissue opens off a frictionless thread just ahead of a cone's apex, where it stays tied to the "
+                "cone, and that corner distorts (CONTACT.md: CalculiX stops there too; docs/contact.md): the paper "
+                'scene reaches 4 N under force control at P1 and P2, or use effects.thread_interface = "sliding"')
+    if effects is None or effects.mixed or cause not in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT):
+        return ""
+    return ('; if the tissue is nearly incompressible, set effects.incompressibility = "mixed" (Taylor-Hood '
+            'displacement-pressure, free of locking), or use mesh.degree = 1')

@@ -52,4 +52,6 @@ class RampResult:
     residual_floor_n: float = 0.0
     floor_above_atol: int = 0
     unknowns: int = 0
+    #: the path-following start (solve/start.py): its end displacement, force and Newton iterations; None without
+    start: dict[str, float] | None = None
     timings: Timings = field(default_factory=Timings)

@@ -31,6 +31,7 @@
   with its usual steps, no cutback counted.
 * Fallbacks before a cutback. A failed solve first switches the linear solver, if the factorisation failed, then retries
   once with the other line search (:mod:`suture_fem.solve.newton`); only then is the step cut.
+* A path-following start (``loading.start_force_n``): :mod:`suture_fem.solve.start`.
 """
 
 from __future__ import annotations
@@ -44,13 +45,14 @@ from petsc4py import PETSc
 from suture_fem.physics.problem import Physics
 from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.model import Scene
-from suture_fem.solve.diagnosis import PHYSICAL_LIMIT, failure_text, stop_cause
+from suture_fem.solve.diagnosis import PHYSICAL_LIMIT, advice, failure_text, stop_cause
 from suture_fem.solve.newton import PETSC_ERROR, NewtonSolver
 from suture_fem.solve.paths import DisplacementRamp, GravityPreload, LoadRamp, Path, TimeHistory
 from suture_fem.solve.records import RampResult, StepRecord, Timings
+from suture_fem.solve.start import displacement_start, switch_to_force
 from suture_fem.solve.stopping import force_scale
 from suture_fem.support import compat
-from suture_fem.support.errors import SolveStopped, StopCause
+from suture_fem.support.errors import SolveStopped
 
 log = logging.getLogger("suture_fem")
 
@@ -103,7 +105,11 @@ def ramp(
                 else DisplacementRamp(physics, scene) if physics.control is not None else LoadRamp(physics, scene))
         if physics.dynamics is not None:
             physics.dynamics.start_from(physics.state)
+        start = physics.control is None and isinstance(main, LoadRamp) and scene.loading.start_force_n > 0
+        reached = displacement_start(physics, scene, result, _Stepper, on_converged, fraction) if start else 0.0
         stepper = _Stepper(main, newton, result, on_converged, fraction, with_solver)
+        if start:  # on from the start's state, under force control (solve/start.py)
+            switch_to_force(stepper, main, reached)
         stepper.warm = warm if isinstance(main, LoadRamp) else None
         stepper.run()
     finally:
@@ -373,28 +379,3 @@ def contact_cutbacks(effects: Any) -> int:
     needed 12 creeps on (docs/hardcases.md).
     """
     return CONTACT_CUTBACKS if effects.unilateral_thread else 2 * CONTACT_CUTBACKS
-
-
-def advice(physics: Physics, cause: StopCause) -> str:
-    """What to change, for a stop the plain displacement formulation causes ('' when there is no advice).
-
-    A nearly incompressible tissue locks the displacement element: Newton diverges or elements invert
-    under a load the mixed formulation carries (docs/hardcases.md: K x10-x1000 at P2).
-    """
-    effects = getattr(physics, "effects", None)
-    stuck = cause in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT)
-    if effects is not None and effects.cone_contact and stuck and getattr(physics, "degree", 1) == 2:
-        return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
-                "cone reaches about 1 N, four stop in their first step (docs/contact.md: P2 cones)")
-    if effects is not None and effects.unilateral_thread and cause in (StopCause.NEWTON_DIVERGENCE,
-                                                                      StopCause.INVERTED_ELEMENT):
-        if effects.frictional_thread:
-            return ('; a Coulomb thread reaches 4 N at P2 under force control (paper scene, mu 0.1, 1 and 4 cones), at '
-                    'P1 with loading.control = "displacement" (4 cones, 4.1 N); at P2 that stops 1 cone at 0.22 N')
-        return ("; the tissue opens off a frictionless thread just ahead of a cone's apex, where it stays tied to the "
-                "cone, and that corner distorts (CONTACT.md: CalculiX stops there too; docs/contact.md): the paper "
-                'scene reaches 4 N under force control at P1 and P2, or use effects.thread_interface = "sliding"')
-    if effects is None or effects.mixed or cause not in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT):
-        return ""
-    return ('; if the tissue is nearly incompressible, set effects.incompressibility = "mixed" (Taylor-Hood '
-            'displacement-pressure, free of locking), or use mesh.degree = 1')

@@ -196,6 +196,11 @@ def check_scene(scene: Scene) -> None:
     if scene.loading.control == "displacement" and (e.inertia or e.gravity):
         raise SceneError('scene key loading.control = "displacement" needs effects.inertia = false and '
                          "effects.gravity = false (the time history and the weight's preload are force-driven)")
+    start = scene.loading.start_force_n
+    if start > 0 and (scene.loading.control != "force" or e.inertia or e.gravity
+                      or start >= min((*scene.loading.report_forces_n, scene.loading.force_n))):
+        raise SceneError(f"scene key loading.start_force_n = {start:g} needs loading.control = \"force\", no inertia "
+                         "nor gravity, and a force below every reported force and loading.force_n")
     if e.cone_interface != "tied" and scene.geometry.cones == 0:
         raise SceneError(f'scene key effects.cone_interface = "{e.cone_interface}" needs geometry.cones >= 1 '
                          '(there is no cone surface); use "tied" with geometry.cones = 0')

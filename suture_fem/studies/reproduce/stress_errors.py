@@ -15,8 +15,8 @@ rung, and where they do the spread is the larger of the two.
 Where no ladder of the case was measured, the bar is None and the report says "not measured". The
 ladders were solved with ``suture-fem convergence paper_reproduction --set geometry.cones=N --set
 loading.force_n=1 --set materials.tissue_scale=S --forces 1 --degrees 1 --refinements 0,1,2 --out DIR``
-for N = 2, 4 and S = 1, 0.3112 (sharp rims, the scene's default; 12 rungs, 6.5 min of CPU in all, 9 min of
-wall time on a shared 2-core machine, a 4-cone P1 r2 rung 1-2.5 min of it) and read by
+for N = 2, 4 and S = 1, 0.3112 (sharp rims, the scene's default; 12 rungs, 8.9 min of CPU in all on a
+shared 2-core machine) and read by
 ``benchmarks/stress_errors.py DIR...``, which prints this table.
 """
 

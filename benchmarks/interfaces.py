@@ -13,8 +13,9 @@ peak memory.
 Counts do not depend on the machine's load; CPU seconds do (compare them side by side, as here).
 ``--before COMMIT`` also runs every case with that commit's code (a git worktree in /var/tmp, as
 benchmarks/speed.py makes), each case before then now, back to back, so both see the same load. Under
-displacement control (``--set loading.control='"displacement"' --set loading.displacement_mm=5``, with
-``--set mesh.degree=1`` for the Coulomb thread) the force column is the end's reaction.
+displacement control (``--set loading.control='"displacement"' --set loading.displacement_mm=5``, P1 or
+P2) the force column is the end's reaction. ``--set effects.friction_coefficient=MU`` sets the Coulomb
+thread's coefficient (the other models do not read it).
 """
 
 from __future__ import annotations

@@ -16,6 +16,8 @@ from suture_fem.support.errors import StopCause
 
 #: The reason the stepping gives a solve that converged to a state past ``solver.gent_limit_fraction``.
 PHYSICAL_LIMIT = "physical_limit"
+#: The reason the stepping gives a step it cut without a solve: every start was outside the admissible domain.
+INADMISSIBLE_START = "inadmissible_start"
 
 #: What a violated limit means, as the failure text says it.
 _VIOLATED = {Limit.J: "J <= 0", Limit.GENT_MARGIN: "Gent limit I1bar - 3 >= Jm"}
@@ -37,7 +39,8 @@ def failure_text(newton: NewtonSolver, reason: str, its: int) -> str:
     if reason == PHYSICAL_LIMIT and v is not None:
         return (f"converged in {its} iterations, but the Gent limit is reached in the {v.region} at "
                 f"r = {v.r_mm:.3f} mm, z = {v.z_mm:.3f} mm: {v.limit}")
-    text = f"SNES {reason} after {its} iterations"
+    text = "every start of the step is outside the admissible domain" if reason == INADMISSIBLE_START else (
+        f"SNES {reason} after {its} iterations")
     if v is not None:
         text += (
             f"; trial states left the admissible domain {newton.outside_domain} times ({_VIOLATED[v.quantity]} in "
@@ -62,8 +65,9 @@ def advice(physics: Physics, cause: StopCause) -> str:
     if effects is not None and effects.unilateral_thread and cause in (StopCause.NEWTON_DIVERGENCE,
                                                                       StopCause.INVERTED_ELEMENT):
         if effects.frictional_thread:
-            return ('; a Coulomb thread reaches 4 N at P2 under force control (paper scene, mu 0.1, 1 and 4 cones), at '
-                    'P1 with loading.control = "displacement" (4 cones, 4.1 N); at P2 that stops 1 cone at 0.22 N')
+            return ('; a Coulomb thread reaches 4 N at P2 under force control (paper scene, mu 0.1, 1 and 4 cones; '
+                    'mu 0.3, 1 cone), and with loading.control = "displacement" at P1 (4 cones, 4.1 N) and P2 (1 cone, '
+                    '8 mm)')
         return ("; the tissue opens off a frictionless thread just ahead of a cone's apex, where it stays tied to the "
                 "cone, and that corner distorts (CONTACT.md: CalculiX stops there too; docs/contact.md): the paper "
                 'scene reaches 4 N under force control at P1 and P2, or use effects.thread_interface = "sliding"')

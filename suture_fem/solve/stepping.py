@@ -23,6 +23,10 @@
   attempts included): the line through two states 45 (37 once :mod:`~suture_fem.solve.stopping` finished round-off
   stalls with full steps), the quadratic with the tangent, first admissible, 41 (it overshoots early in the ramp),
   chosen by merit 33, with the energy line search's hand-over 30; P2 63 -> 50 (benchmarks/newton_counts.py).
+  Where every start is inadmissible (an end moved by a long step inverts the elements beside it) the step is cut
+  without a Newton solve: from there SNES saw the guard's placeholder residual and stepped 3.5e6 m (P2 Coulomb thread
+  under displacement control), MUMPS failed on that Jacobian, and the run went on with LU, without the inertia
+  correction, for good.
 * Physical limit. A converged state is checked against ``solver.gent_limit_fraction``
   (:meth:`~suture_fem.solve.guard.DomainGuard.limit_reached`) and rejected like a failed step there.
 * Warm starts. A caller that has solved the same scene at nearby parameters (a calibration's previous evaluation) may
@@ -45,7 +49,7 @@ from petsc4py import PETSc
 from suture_fem.physics.problem import Physics
 from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.model import Scene
-from suture_fem.solve.diagnosis import PHYSICAL_LIMIT, advice, failure_text, stop_cause
+from suture_fem.solve.diagnosis import INADMISSIBLE_START, PHYSICAL_LIMIT, advice, failure_text, stop_cause
 from suture_fem.solve.newton import PETSC_ERROR, NewtonSolver
 from suture_fem.solve.paths import DisplacementRamp, GravityPreload, LoadRamp, Path, TimeHistory
 from suture_fem.solve.records import RampResult, StepRecord, Timings
@@ -150,8 +154,10 @@ class _Stepper:
             while self.s < self.path.end - self.eps:
                 trial = self._next_trial()
                 self.path.apply(self.s, trial)
-                self._predict(trial)
-                ok, its, reason = self._solve()
+                if self._predict(trial):
+                    ok, its, reason = self._solve()
+                else:  # no admissible start: no Newton solve (module docstring)
+                    ok, its, reason = False, 0, INADMISSIBLE_START
                 if ok:
                     self._accept(trial, its)
                 else:
@@ -178,8 +184,11 @@ class _Stepper:
         stub = max(path.min_step, MILESTONE_STRETCH * self.step)
         return target if target - trial < stub and target - self.s <= path.max_step + self.eps else trial
 
-    def _predict(self, trial: float) -> None:
-        """Start the trial from the extrapolation of the path closest to balance (module docstring)."""
+    def _predict(self, trial: float) -> bool:
+        """Start the trial from the extrapolation of the path closest to balance (module docstring).
+
+        False when every start is outside the admissible domain (the newton's last violation is then the start's).
+        """
         h, hp = trial - self.s, self.prev_step
         has_previous = self.previous is not None and hp > 0
         candidates = []
@@ -213,6 +222,10 @@ class _Stepper:
             for _, vec in terms:
                 if vec is not self.tangent:
                     vec.destroy()
+        if best_merit < float("inf") or self.newton.guard.admissible():
+            return True
+        self.newton.outside_domain, self.newton.last_violation = 1, self.newton.guard.violation
+        return False
 
     def _warm_state(self, s: float) -> Any:
         """The caller's start state for the load s (a report force not yet tried from it), else None.
@@ -318,6 +331,8 @@ class _Stepper:
             log.info("Newton failed from the warm start at %s (%s); stepping there as usual",
                      self.path.describe(trial), reason)
             return
+        if reason == INADMISSIBLE_START:  # no solve was made: nothing to retry at this step
+            return self._cut(trial, its, reason)
         if newton.linear_failure() or reason == PETSC_ERROR:
             fallback = newton.next_linear_solver()
             if fallback is not None:

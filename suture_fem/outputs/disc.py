@@ -135,18 +135,18 @@ class CellField:
         return self._reduce(Prepared.of(points, located, self.row, self.centre).values(self.columns))
 
     def at_discs(self, centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`at` of ``[centres, centre 0 + offsets, ...]`` and the rule's 2 pi r weights (k, m) (collective).
+        """:meth:`at` of ``[centre i, centre i + offsets]`` for each centre (k, m + 1); the rule's weights (collective).
 
-        With ``discs`` (:class:`DiscPoints`), a centre's points are located once and a batch of centres is
-        prepared once, reused by every later field of the same cells (another state): the same cells, so
-        the same values, bit for bit.
+        The weights (k, m) are ``weights * |r|`` of each rule point (the 2 pi r weighting). With ``discs``
+        (:class:`DiscPoints`), a centre's points are located and prepared once, for every later field of the
+        same cells (another state): the same cells, so the same values, bit for bit.
         """
         if self.discs is None or not len(centres):
-            points = np.concatenate([centres, (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)])
-            w = weights[None, :] * np.abs(points[len(centres):, 0]).reshape(len(centres), -1)
-            return self.at(points), w
+            points = np.concatenate([centres[:, None, :], centres[:, None, :] + offsets[None, :, :]], axis=1)
+            w = weights[None, :] * np.abs(points[:, 1:, 0])
+            return self.at(points.reshape(-1, 2)).reshape(len(centres), -1), w
         prepared, w = self.discs.prepared_discs(centres, offsets, weights, self.row, self.centre)
-        return self._reduce(prepared.values(self.columns)), w
+        return self._reduce(prepared.values(self.columns)).reshape(len(centres), -1), w
 
     def _reduce(self, local: np.ndarray) -> np.ndarray:
         """The largest of every rank's values (collective)."""
@@ -203,8 +203,8 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
             out[ok] = disc_averages(field, centres[ok], radius)
         return out
     offsets, weights = disc_rule(radius)
-    values, w = field.at_discs(np.asarray(centres, dtype=float), offsets, weights)
-    inside, vals = values[: len(centres)], values[len(centres):].reshape(len(centres), -1)
+    values, w = field.at_discs(np.asarray(centres, dtype=float).reshape(-1, 2), offsets, weights)
+    inside, vals = values[:, 0], values[:, 1:]
     finite = np.isfinite(vals)
     w = np.where(finite, w, 0.0)
     total = w.sum(axis=1)

@@ -165,12 +165,18 @@ def _rule_weights(centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray)
     return weights[None, :] * np.abs(centres[:, :1] + offsets[None, :, 0])
 
 
-class _Table:
-    """Columns of equal length that grow (their capacity doubled), read by index."""
+class Table:
+    """Columns of equal length that grow (their capacity doubled), read by name up to ``size``.
+
+    Each column is a dtype, or (dtype, width) for rows of ``width`` values.
+    """
 
     def __init__(self, **dtypes: Any):
         self.size = 0
-        self.cols = {name: np.empty(1024, dtype=dtype) for name, dtype in dtypes.items()}
+        self.cols: dict[str, np.ndarray] = {}
+        for name, d in dtypes.items():
+            dtype, width = d if isinstance(d, tuple) else (d, None)
+            self.cols[name] = np.empty((1024,) if width is None else (1024, width), dtype=dtype)
 
     def append(self, **values: np.ndarray) -> int:
         """Append the columns' new values (every column); the index of the first."""
@@ -180,7 +186,7 @@ class _Table:
         if end > capacity:
             capacity = max(end, 2 * capacity)
             for name, old in self.cols.items():
-                self.cols[name] = np.empty(capacity, dtype=old.dtype)
+                self.cols[name] = np.empty((capacity, *old.shape[1:]), dtype=old.dtype)
                 self.cols[name][:start] = old[:start]
         for name, v in values.items():
             self.cols[name][start:end] = v
@@ -211,8 +217,8 @@ class _Pool:
     def __init__(self, offsets: np.ndarray):
         self.offsets = offsets
         self.index: dict[bytes, int] = {}
-        self.centres = _Table(start=np.int64, count=np.int64)
-        self.pairs = _Table(point=np.int16, rows=np.int32, d0=np.float64, d1=np.float64, first=bool)
+        self.centres = Table(start=np.int64, count=np.int64)
+        self.pairs = Table(point=np.int16, rows=np.int32, d0=np.float64, d1=np.float64, first=bool)
 
     def sizes(self) -> tuple[int, int]:
         """The tables' sizes (for :meth:`truncate`)."""

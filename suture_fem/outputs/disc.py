@@ -206,9 +206,11 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
     values, w = field.at_discs(np.asarray(centres, dtype=float).reshape(-1, 2), offsets, weights)
     inside, vals = values[:, 0], values[:, 1:]
     finite = np.isfinite(vals)
-    w = np.where(finite, w, 0.0)
+    np.copyto(w, 0.0, where=~finite)  # w is this call's own array
     total = w.sum(axis=1)
-    avg = np.where(total > 0, np.sum(w * np.where(finite, vals, 0.0), axis=1) / np.maximum(total, 1e-300), -np.inf)
+    weighted = np.where(finite, vals, 0.0)
+    weighted *= w
+    avg = np.where(total > 0, np.sum(weighted, axis=1) / np.maximum(total, 1e-300), -np.inf)
     return np.where(np.isfinite(inside), avg, -np.inf)
 
 
@@ -352,7 +354,9 @@ def coarse_starts(field: CellField, lo: np.ndarray, hi: np.ndarray, radius: floa
     avg = _window_sum(w * np.where(inside, values, 0.0), _STENCIL, 0.0)
     avg = np.where(inside & (den > 0), avg / np.maximum(den, 1e-300), -np.inf)
     around = [(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j]
-    peak = np.all([avg >= shifted for shifted in _shifts(avg, around, -np.inf)], axis=0) & np.isfinite(avg)
+    peak = np.isfinite(avg)
+    for shifted in _shifts(avg, around, -np.inf):  # no neighbour larger
+        peak &= avg >= shifted
     idx = np.flatnonzero(peak)
     return spread(nodes.reshape(-1, 2)[idx[np.argsort(-avg.reshape(-1)[idx], kind="stable")]], radius, count)
 

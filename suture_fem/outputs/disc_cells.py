@@ -32,7 +32,7 @@ import numpy as np
 
 from suture_fem.outputs.ball_cells import near_cells, reach_groups, reduced_averages
 from suture_fem.outputs.climb import climb
-from suture_fem.outputs.disc_points import Table
+from suture_fem.outputs.disc_points import Table, ranges
 from suture_fem.support import compat
 
 #: Most (disc, cell) pairs whose weights are kept for later fields and states (28 bytes each: 28 MB per region).
@@ -85,12 +85,11 @@ class DiscOverlap:
         out[:, 2] = self.centres.held[ids]
         has = count > 0  # reduceat: each centre's cells, from its first (none: skipped)
         if has.any():
-            ends = np.cumsum(count)
-            take = np.repeat(self.centres.start[ids] - (ends - count), count) + np.arange(int(ends[-1]))
+            take = ranges(self.centres.start[ids], count)
             cells = self.pairs.cells[take]
             per_cell = np.stack([np.einsum("nk,nk->n", vertex_values[cells], self.pairs.w[take]),
                                  self.pairs.w_sum[take]], axis=1)
-            out[has, :2] = np.add.reduceat(per_cell, (ends - count)[has], axis=0)
+            out[has, :2] = np.add.reduceat(per_cell, (np.cumsum(count) - count)[has], axis=0)
         if sizes is not None:
             self._truncate(sizes)
         return out

@@ -33,11 +33,12 @@ class Prepared(NamedTuple):
 
     ``size`` points; per (point, cell) pair, sorted by point: the point's index ``idx``, the cell's row
     ``rows`` in the coefficients and the point's offset ``d0``, ``d1`` from the cell's centre;
-    ``starts`` (None: ``idx`` not sorted) the first pair of each point and ``group`` that point.
+    ``starts`` (None: ``idx`` not sorted) the first pair of each point and ``group`` that point (with
+    them ``idx`` may be None: the points of a :class:`_Pool`'s batch).
     """
 
     size: int
-    idx: np.ndarray
+    idx: np.ndarray | None
     rows: np.ndarray
     d0: np.ndarray
     d1: np.ndarray
@@ -63,7 +64,7 @@ class Prepared(NamedTuple):
         ``columns`` (3, n): the coefficients a, b and c of the n cells (each row contiguous).
         """
         local = np.full(self.size, -np.inf)
-        if not len(self.idx):
+        if not len(self.rows):
             return local
         rows = self.rows
         vals = columns[1][rows]  # a + b d0 + c d1 in place: (b d0 + a) + c d1, the same sums (addition commutes)
@@ -217,8 +218,9 @@ class _Pool:
     def __init__(self, offsets: np.ndarray):
         self.offsets = offsets
         self.index: dict[bytes, int] = {}
-        self.centres = Table(start=np.int64, count=np.int64)
-        self.pairs = Table(point=np.int16, rows=np.int32, d0=np.float64, d1=np.float64, first=bool)
+        #: per centre: its first pair, how many, and which of its m + 1 points a cell holds
+        self.centres = Table(start=np.int64, count=np.int64, located=(bool, len(offsets) + 1))
+        self.pairs = Table(rows=np.int32, d0=np.float64, d1=np.float64, first=bool)
 
     def sizes(self) -> tuple[int, int]:
         """The tables' sizes (for :meth:`truncate`)."""
@@ -238,21 +240,33 @@ class _Pool:
         d = points[idx] - centre[rows]
         first = np.r_[True, idx[1:] != idx[:-1]] if len(idx) else np.zeros(0, dtype=bool)
         count = np.bincount(idx // (m + 1), minlength=k)
-        base = self.pairs.append(point=idx % (m + 1), rows=rows, d0=d[:, 0], d1=d[:, 1], first=first)
-        start = self.centres.append(start=base + np.cumsum(count) - count, count=count)
+        located = np.zeros((k, m + 1), dtype=bool)
+        located.reshape(-1)[idx] = True
+        base = self.pairs.append(rows=rows, d0=d[:, 0], d1=d[:, 1], first=first)
+        start = self.centres.append(start=base + np.cumsum(count) - count, count=count, located=located)
         return np.arange(start, start + k)
 
     def gather(self, ids: np.ndarray) -> Prepared:
         """The points of the centres numbered ``ids``, prepared (point i (m + 1) + p: point p of disc i)."""
-        m1 = len(self.offsets) + 1
-        count = self.centres.count[ids]
-        total = int(count.sum())
-        ends = np.cumsum(count)
-        take = np.repeat(self.centres.start[ids] - (ends - count), count) + np.arange(total)
+        take = ranges(self.centres.start[ids], self.centres.count[ids])
         pairs = self.pairs
-        idx = np.repeat(np.arange(len(ids), dtype=np.int64) * m1, count) + pairs.point[take]
-        starts = np.flatnonzero(pairs.first[take])
-        return Prepared(len(ids) * m1, idx, pairs.rows[take], pairs.d0[take], pairs.d1[take], starts, idx[starts])
+        group = np.flatnonzero(self.centres.located[ids])  # the points a cell holds, in order
+        return Prepared(len(ids) * (len(self.offsets) + 1), None, pairs.rows[take], pairs.d0[take], pairs.d1[take],
+                        np.flatnonzero(pairs.first[take]), group)
+
+
+def ranges(first: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """``first[i], first[i] + 1, ..., first[i] + count[i] - 1`` for each i in turn, as one array (one running sum)."""
+    ends = np.cumsum(count)
+    total = int(ends[-1]) if len(ends) else 0
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    some = count > 0
+    f, c, at = first[some], count[some], (ends - count)[some]  # at[0] is 0
+    step = np.ones(total, dtype=np.int64)
+    step[0] = f[0]
+    step[at[1:]] = f[1:] - (f[:-1] + c[:-1] - 1)
+    return np.cumsum(step)
 
 
 def _groups(idx: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:

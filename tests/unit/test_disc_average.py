@@ -199,6 +199,20 @@ def test_spread_takes_candidates_in_order_each_far_enough_from_those_taken_befor
         assert np.array_equal(spread(candidates, separation, count), np.array(expected).reshape(-1, 2))
 
 
+def test_the_candidates_order_is_the_lexsort_of_value_r_and_z_largest_first():
+    from suture_fem.outputs.candidates import _descending
+
+    rng = np.random.default_rng(8)
+    for trial in range(60):
+        n = int(rng.integers(0, 80))
+        rows = rng.normal(size=(n, 3)) if trial % 3 else np.round(rng.normal(size=(n, 3)), 1)  # equal values
+        if trial % 7 == 3 and n:
+            rows[int(rng.integers(0, n)), 0] = np.nan
+        if trial % 5 == 4 and n > 1:
+            rows[:2, 0] = -0.0, 0.0
+        assert np.array_equal(_descending(rows), np.lexsort((-rows[:, 2], -rows[:, 1], -rows[:, 0])))
+
+
 def test_the_largest_values_by_partition_are_the_set_the_sort_takes():
     from suture_fem.outputs.candidates import _largest
 

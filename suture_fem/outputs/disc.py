@@ -273,18 +273,16 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
         keys = (index[:, 0] * 2**32 + index[:, 1]).tolist()
     else:
         keys = [tuple(k) for k in index.tolist()]
-    ok = allowed(grid).tolist() if allowed is not None else None
-    first: dict = {}  # each key once (the grids of several climbs overlap), at its first index
-    for i, k in enumerate(keys):  # the same on every rank: the same keys
-        if (ok is None or ok[i]) and k not in known:
-            first.setdefault(k, i)
-    new = list(first.values())
+    ok = allowed(grid) if allowed is not None else None
+    ok_list = ok.tolist() if ok is not None else None
+    # each key once (the grids of several climbs overlap), at its first index: the same on every rank
+    first = dict(zip(reversed(keys), range(len(keys) - 1, -1, -1)))
+    new = [k for k, i in first.items() if k not in known and (ok_list is None or ok_list[i])]
     if new:
-        for i, v in zip(new, disc_averages(field, grid[new], radius).tolist()):
-            known[keys[i]] = v
+        known.update(zip(new, disc_averages(field, grid[[first[k] for k in new]], radius).tolist()))
     out = np.array([known.get(k, -np.inf) for k in keys])
     if ok is not None:
-        out[~np.asarray(ok, dtype=bool)] = -np.inf
+        out[~ok] = -np.inf
     return out
 
 
@@ -298,25 +296,21 @@ def _climbs(field: CellField, centres: list[np.ndarray], values: list[float], h:
     """
     k = np.arange(-half, half + 1) * h
     k_r, k_z = np.repeat(k, len(k)), np.tile(k, len(k))  # the (2 half + 1)^2 offsets, r slowest
-    active = list(range(len(centres)))
+    active = np.arange(len(centres))
     for _ in range(MAX_MOVES):
-        if not active:
+        if not len(active):
             break
-        grids = []
-        for i in active:
-            base = np.round(centres[i] / h) * h  # grid points fixed in space, not on the mesh
-            grids.append(np.column_stack([base[0] + k_r, base[1] + k_z]))
-        every = _grid_averages(field, np.concatenate(grids), radius, allowed, known).reshape(len(active), -1)
-        still = []
-        for i, grid, avgs in zip(active, grids, every):
-            j = int(np.argmax(avgs))
-            if not avgs[j] > values[i]:
-                continue
-            values[i], centres[i] = float(avgs[j]), grid[j]
-            row, col = divmod(j, 2 * half + 1)
-            if not (0 < row < 2 * half and 0 < col < 2 * half):  # on the window's edge: move on
-                still.append(i)
-        active = still
+        base = np.round(np.array([centres[i] for i in active]) / h) * h  # grid points fixed in space, not on the mesh
+        grids = np.stack([base[:, :1] + k_r, base[:, 1:] + k_z], axis=2)
+        every = _grid_averages(field, grids.reshape(-1, 2), radius, allowed, known).reshape(len(active), -1)
+        j = np.argmax(every, axis=1)
+        best = every[np.arange(len(active)), j]
+        better = best > np.array([values[i] for i in active])
+        for n in np.flatnonzero(better).tolist():
+            values[active[n]], centres[active[n]] = float(best[n]), grids[n, j[n]]
+        row, col = np.divmod(j, 2 * half + 1)
+        inside = (row > 0) & (row < 2 * half) & (col > 0) & (col < 2 * half)
+        active = active[better & ~inside]  # on the window's edge: move on
 
 
 #: The coarse view's grid spacing (fraction of R) and its stencil: the offsets (in spacings) within R.

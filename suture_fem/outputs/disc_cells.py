@@ -226,17 +226,18 @@ def overlap_averages(field: Any, centres: np.ndarray, radius: float,
     As :func:`suture_fem.outputs.disc.disc_averages`: -inf for a centre no cell holds or ``allowed`` rules out.
     """
     centres = np.asarray(centres, dtype=float).reshape(-1, 2)
-    out = np.full(len(centres), -np.inf)
-    ok = allowed(centres) if allowed is not None else np.ones(len(centres), dtype=bool)
-    if not ok.any():  # centres and mask are the same on every rank: collective on all or on none
+    if allowed is not None:
+        out = np.full(len(centres), -np.inf)
+        ok = allowed(centres)
+        if ok.any():  # centres and mask are the same on every rank: collective on all or on none
+            out[ok] = overlap_averages(field, centres[ok], radius)
         return out
-    c = centres[ok]
-    both = np.zeros((len(c), 3))
-    if len(field.cells):
-        overlap, values = field_overlap(field, radius)
-        both = overlap.both(values, c, field.locate)
-    out[ok] = reduced_averages(field.comm, both)
-    return out
+    if not len(centres):
+        return np.full(0, -np.inf)
+    if not len(field.cells):
+        return reduced_averages(field.comm, np.zeros((len(centres), 3)))
+    overlap, values = field_overlap(field, radius)
+    return reduced_averages(field.comm, overlap.both(values, centres, field.locate))
 
 
 def overlap_climbs(field: Any, starts: list[np.ndarray], radius: float, allowed: Any,

@@ -41,7 +41,7 @@ import numpy as np
 
 from suture_fem.outputs.candidates import CANDIDATES, spread, top_points
 from suture_fem.outputs.disc_cells import overlap_averages, overlap_climbs
-from suture_fem.outputs.disc_points import DiscPoints, Prepared
+from suture_fem.outputs.disc_points import DiscPoints, Prepared, row_keys
 from suture_fem.support import compat
 
 __all__ = ["CellField", "DiscMax", "DiscPoints", "coarse_starts", "disc_averages", "disc_rule",
@@ -206,7 +206,7 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
     values, w = field.at_discs(np.asarray(centres, dtype=float).reshape(-1, 2), offsets, weights)
     inside, vals = values[:, 0], values[:, 1:]
     finite = np.isfinite(vals)
-    np.copyto(w, 0.0, where=~finite)  # w is this call's own array
+    w = np.where(finite, w, 0.0)  # (not in place: the weights may be kept with their batch)
     total = w.sum(axis=1)
     weighted = np.where(finite, vals, 0.0)
     weighted *= w
@@ -257,7 +257,7 @@ def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ..
 def _start_averages(field: CellField, group: np.ndarray, radius: float, known: dict) -> np.ndarray:
     """:func:`disc_averages` at candidate centres (k, 2), each computed once per ``known`` (under its bytes)."""
     ranked = known.setdefault("starts", {})
-    keys = [c.tobytes() for c in group]
+    keys = row_keys(group)
     new = [i for i, k in enumerate(keys) if k not in ranked]
     if new:  # each centre's average is its own: the same in any batch
         ranked.update(zip((keys[i] for i in new), disc_averages(field, group[new], radius).tolist()))
@@ -367,7 +367,8 @@ def _coarse_nodes(lo: np.ndarray, hi: np.ndarray, radius: float) -> np.ndarray:
 
 def _shifts(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> list[np.ndarray]:
     """``a`` at index (k + i, l + j) for every (k, l), for each offset (i, j), ``fill`` beyond its edges (views)."""
-    padded = np.pad(a, 2, constant_values=fill)
+    padded = np.full((a.shape[0] + 4, a.shape[1] + 4), fill, dtype=a.dtype)
+    padded[2:-2, 2:-2] = a
     return [padded[2 + i: 2 + i + a.shape[0], 2 + j: 2 + j + a.shape[1]] for i, j in offsets]
 
 

@@ -32,10 +32,11 @@ import numpy as np
 
 from suture_fem.outputs.ball_cells import near_cells, reach_groups, reduced_averages
 from suture_fem.outputs.climb import climb
-from suture_fem.outputs.disc_points import Table, ranges
+from suture_fem.outputs.disc_points import Table, ranges, row_keys
 from suture_fem.support import compat
 
-#: Most (disc, cell) pairs whose weights are kept for later fields and states (28 bytes each: 28 MB per region).
+#: Most (disc, cell) pairs whose weights are kept for later fields and states (40 bytes each: 40 MB per region), and
+#: most pairs of batches of centres kept gathered (as many again).
 KEPT_PAIRS = 1_000_000
 #: The last stage's pattern search: the spacings of its 3 x 3 grids (fractions of R, each a multiple of the last;
 #: the finest is the point rule's search's finest) and the largest number of moves per spacing.
@@ -59,8 +60,11 @@ class DiscOverlap:
         self.index: dict[bytes, int] = {}
         self.centres = Table(start=np.int64, count=np.int64, held=np.float64)
         #: per (disc, cell) pair of a kept disc: the cell, its vertex weights w_k (3) and their sum
-        self.pairs = Table(cells=np.int32, w=(np.float64, 3), w_sum=np.float64)
+        self.pairs = Table(cells=np.intp, w=(np.float64, 3), w_sum=np.float64)
         self._offsets: tuple[np.ndarray, np.ndarray] | None = None  # a fit's cell centres, the vertices' offsets
+        #: per batch of centres asked for again (its bytes): its pairs gathered, up to KEPT_PAIRS pairs in all
+        self.batches: dict[bytes, tuple[np.ndarray, ...]] = {}
+        self.batched = 0
 
     def weights(self, centres: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per centre (k, 2): (cells, vertex weights (m, 3) with a positive sum) of its disc: see the module."""
@@ -77,21 +81,28 @@ class DiscOverlap:
 
         From the cells' vertex values (n, 3); ``locate``: the cells' locator. Each centre's cells and weights are
         computed once (the centres not kept together: one :func:`cut_moments` for all their cut cells) and kept,
-        up to :data:`KEPT_PAIRS` (cell, disc) pairs in all; a batch gathers its centres' pairs.
+        up to :data:`KEPT_PAIRS` (cell, disc) pairs in all; a batch gathers its centres' pairs, and a batch asked
+        for again (a pattern search from where an earlier answer's was) reuses them, up to as many pairs again.
         """
-        ids, sizes = self._numbers(centres, locate)
-        count = self.centres.count[ids]
-        out = np.zeros((len(centres), 3))
-        out[:, 2] = self.centres.held[ids]
-        has = count > 0  # reduceat: each centre's cells, from its first (none: skipped)
-        if has.any():
+        key = centres.tobytes()
+        batch = self.batches.get(key)
+        if batch is None:
+            ids, sizes = self._numbers(centres, locate)
+            count = self.centres.count[ids]
+            has = count > 0  # reduceat: each centre's cells, from its first (none: skipped)
             take = ranges(self.centres.start[ids], count)
-            cells = self.pairs.cells[take]
-            per_cell = np.stack([np.einsum("nk,nk->n", vertex_values[cells], self.pairs.w[take]),
-                                 self.pairs.w_sum[take]], axis=1)
-            out[has, :2] = np.add.reduceat(per_cell, (np.cumsum(count) - count)[has], axis=0)
-        if sizes is not None:
-            self._truncate(sizes)
+            batch = (self.pairs.cells[take], self.pairs.w[take], self.pairs.w_sum[take], has,
+                     (np.cumsum(count) - count)[has], self.centres.held[ids])
+            if sizes is not None:
+                self._truncate(sizes)
+            elif self.batched + len(take) <= KEPT_PAIRS:
+                self.batches[key], self.batched = batch, self.batched + len(take)
+        cells, w, w_sum, has, first, held = batch
+        out = np.zeros((len(centres), 3))
+        out[:, 2] = held
+        if len(cells):
+            per_cell = np.stack([np.einsum("nk,nk->n", vertex_values[cells], w), w_sum], axis=1)
+            out[has, :2] = np.add.reduceat(per_cell, first, axis=0)
         return out
 
     def vertex_offsets(self, centre: np.ndarray) -> np.ndarray:
@@ -105,7 +116,7 @@ class DiscOverlap:
 
         ``locate`` None: whether a cell holds a new centre is not asked (0.0).
         """
-        keys = [c.tobytes() for c in centres]
+        keys = row_keys(centres)
         ids = np.fromiter(map(self.index.get, keys, itertools.repeat(-1)), np.int64, len(keys))
         if not len(ids) or ids.min() >= 0:
             return ids, None
@@ -121,7 +132,8 @@ class DiscOverlap:
         return ids, None
 
     def _truncate(self, sizes: tuple[int, int]) -> None:
-        self.centres.size, self.pairs.size = sizes
+        self.centres.resize(sizes[0])
+        self.pairs.resize(sizes[1])
 
     def _add(self, centres: np.ndarray, locate: Any) -> np.ndarray:
         """Add new centres (k, 2): their cells, weights and whether a cell holds them; their numbers (k,)."""
@@ -137,7 +149,7 @@ class DiscOverlap:
         if locate is not None and k:
             idx, _ = locate(np.column_stack([centres, np.zeros(k)]), keep=False)
             held[idx] = 1.0
-        base = self.pairs.append(cells=near[keep].astype(np.int32), w=w[keep], w_sum=w[keep].sum(axis=1))
+        base = self.pairs.append(cells=near[keep], w=w[keep], w_sum=w[keep].sum(axis=1))
         start = self.centres.append(start=base + np.cumsum(count) - count, count=count, held=held)
         return np.arange(start, start + k)
 

@@ -91,7 +91,7 @@ class DiscPoints:
     It also keeps what every field fitted on the region's cells shares: the cells' centres and rows and
     the least-squares system of the fit (``cells``, set by :class:`~suture_fem.outputs.disc.CellField`).
     Each disc centre's points are prepared once (:class:`_Pool`: its pairs' point numbers, rows and offsets,
-    about 3.5 kB a centre) and a batch of centres is gathered from them; up to ``limit`` (point, cell) pairs
+    about 4 kB a centre) and a batch of centres is gathered from them; up to ``limit`` (point, cell) pairs
     are kept per rule (beyond it, new centres are prepared for their batch alone). Other points (a coarse
     view's grid) are kept as prepared batches up to ``batch_bytes`` (the least recently used one goes first).
     """
@@ -102,7 +102,8 @@ class DiscPoints:
         self.pools: dict[bytes, _Pool] = {}
         #: the fields' cell centres, rows and least-squares system (they too depend on the points alone)
         self.cells: tuple[np.ndarray, np.ndarray, Any] | None = None
-        self.batches: OrderedDict[bytes, Prepared] = OrderedDict()
+        #: prepared batches asked for again (a batch of disc centres with its rule weights, a coarse view's grid)
+        self.batches: OrderedDict[bytes, tuple[Prepared, np.ndarray | None]] = OrderedDict()
         #: per coarse view (its key): its grid, where the field was, the 2 pi r weights and their window sums
         self.coarse: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         #: per radius, the cells' overlaps with discs (:class:`~suture_fem.outputs.disc_cells.DiscOverlap`)
@@ -117,11 +118,20 @@ class DiscPoints:
         are numbered i (m + 1) (the centre) to i (m + 1) + m (its rule points).
         """
         centres = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 2)
+        key = _digest(b"discs", offsets, centres)
+        if key in self.batches:  # the same batch again (a climb from where an earlier answer's climb was)
+            self.batches.move_to_end(key)
+            return self.batches[key]
+        prepared, w = self._pooled(centres, offsets, row, centre), _rule_weights(centres, offsets, weights)
+        return self._keep(key, prepared, w)
+
+    def _pooled(self, centres: np.ndarray, offsets: np.ndarray, row: np.ndarray, centre: np.ndarray) -> Prepared:
+        """:meth:`prepared_discs`'s points gathered from the centres' own (new centres prepared first)."""
         tag = offsets.tobytes()
         if tag not in self.pools:
             self.pools[tag] = _Pool(np.ascontiguousarray(offsets, dtype=np.float64))
         pool = self.pools[tag]
-        keys = [c.tobytes() for c in centres]
+        keys = row_keys(centres)
         ids = np.fromiter(map(pool.index.get, keys, itertools.repeat(-1)), np.int64, len(keys))
         if len(ids) and ids.min() < 0:
             first: dict[bytes, int] = {}  # each new centre once, at its first index
@@ -136,8 +146,8 @@ class DiscPoints:
             else:  # prepared for this batch alone
                 prepared = pool.gather(ids)
                 pool.truncate(size)
-                return prepared, _rule_weights(centres, offsets, weights)
-        return pool.gather(ids), _rule_weights(centres, offsets, weights)
+                return prepared
+        return pool.gather(ids)
 
     def prepared_points(self, points: np.ndarray, row: np.ndarray, centre: np.ndarray,
                         key: bytes | None = None) -> Prepared:
@@ -149,16 +159,20 @@ class DiscPoints:
         key = _digest(b"points", points) if key is None else key
         if key in self.batches:
             self.batches.move_to_end(key)
-            return self.batches[key]
+            return self.batches[key][0]
         located = self.locate(np.column_stack([points, np.zeros(len(points))]), keep=False) if len(points) else None
-        prepared = Prepared.of(points, located, row, centre)
-        while self.batches and self._bytes + prepared.nbytes > self.batch_bytes:
-            _, old = self.batches.popitem(last=False)
-            self._bytes -= old.nbytes
-        if prepared.nbytes <= self.batch_bytes:
-            self.batches[key] = prepared
-            self._bytes += prepared.nbytes
-        return prepared
+        return self._keep(key, Prepared.of(points, located, row, centre), None)[0]
+
+    def _keep(self, key: bytes, prepared: Prepared, w: np.ndarray | None) -> tuple[Prepared, Any]:
+        """Keep a prepared batch (the least recently used ones go while the batches would exceed their bytes)."""
+        size = prepared.nbytes + (w.nbytes if w is not None else 0)
+        while self.batches and self._bytes + size > self.batch_bytes:
+            _, (old, old_w) = self.batches.popitem(last=False)
+            self._bytes -= old.nbytes + (old_w.nbytes if old_w is not None else 0)
+        if size <= self.batch_bytes:
+            self.batches[key] = (prepared, w)
+            self._bytes += size
+        return prepared, w
 
 
 def _rule_weights(centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -167,17 +181,17 @@ def _rule_weights(centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray)
 
 
 class Table:
-    """Columns of equal length that grow (their capacity doubled), read by name up to ``size``.
+    """Columns of equal length that grow (their capacity doubled), read as attributes of length ``size``.
 
     Each column is a dtype, or (dtype, width) for rows of ``width`` values.
     """
 
     def __init__(self, **dtypes: Any):
-        self.size = 0
         self.cols: dict[str, np.ndarray] = {}
         for name, d in dtypes.items():
             dtype, width = d if isinstance(d, tuple) else (d, None)
             self.cols[name] = np.empty((1024,) if width is None else (1024, width), dtype=dtype)
+        self.resize(0)
 
     def append(self, **values: np.ndarray) -> int:
         """Append the columns' new values (every column); the index of the first."""
@@ -191,14 +205,14 @@ class Table:
                 self.cols[name][:start] = old[:start]
         for name, v in values.items():
             self.cols[name][start:end] = v
-        self.size = end
+        self.resize(end)
         return start
 
-    def __getattr__(self, name: str) -> np.ndarray:
-        cols = self.__dict__.get("cols", {})
-        if name not in cols:
-            raise AttributeError(name)
-        return cols[name][: self.size]
+    def resize(self, size: int) -> None:
+        """Keep the first ``size`` rows (at most those appended): each column is an attribute of that length."""
+        self.size = size
+        for name, col in self.cols.items():
+            setattr(self, name, col[:size])
 
     @property
     def nbytes(self) -> int:
@@ -220,7 +234,7 @@ class _Pool:
         self.index: dict[bytes, int] = {}
         #: per centre: its first pair, how many, and which of its m + 1 points a cell holds
         self.centres = Table(start=np.int64, count=np.int64, located=(bool, len(offsets) + 1))
-        self.pairs = Table(rows=np.int32, d0=np.float64, d1=np.float64, first=bool)
+        self.pairs = Table(rows=np.intp, d0=np.float64, d1=np.float64, first=bool)
 
     def sizes(self) -> tuple[int, int]:
         """The tables' sizes (for :meth:`truncate`)."""
@@ -228,7 +242,8 @@ class _Pool:
 
     def truncate(self, sizes: tuple[int, int]) -> None:
         """Forget the centres added since :meth:`sizes` gave ``sizes``."""
-        self.centres.size, self.pairs.size = sizes
+        self.centres.resize(sizes[0])
+        self.pairs.resize(sizes[1])
 
     def add(self, centres: np.ndarray, row: np.ndarray, centre: np.ndarray, locate: Any) -> np.ndarray:
         """Prepare new centres (k, 2) (rows and centres of the fields' cells); their numbers (k,)."""
@@ -253,6 +268,12 @@ class _Pool:
         group = np.flatnonzero(self.centres.located[ids])  # the points a cell holds, in order
         return Prepared(len(ids) * (len(self.offsets) + 1), None, pairs.rows[take], pairs.d0[take], pairs.d1[take],
                         np.flatnonzero(pairs.first[take]), group)
+
+
+def row_keys(rows: np.ndarray) -> list[bytes]:
+    """The bytes of each row of a float array (k, d): ``[row.tobytes() for row in rows]``, at once."""
+    rows = np.ascontiguousarray(rows, dtype=np.float64)
+    return rows.view(np.dtype((np.void, rows.itemsize * rows.shape[1]))).ravel().tolist() if rows.size else []
 
 
 def ranges(first: np.ndarray, count: np.ndarray) -> np.ndarray:

@@ -82,7 +82,7 @@ def _averages(grid: np.ndarray, unit: float, evaluate: Callable[[np.ndarray], np
     new = [k for k, n in first.items() if k not in known and (allowed is None or allowed[n])]
     if new:
         known.update(zip(new, evaluate(grid[[first[k] for k in new]] * unit).tolist()))
-    out = np.array([known.get(k, -np.inf) for k in keys])
+    out = np.fromiter(map(known.get, keys, itertools.repeat(-np.inf)), np.float64, len(keys))
     if ok is not None:
         out[~ok] = -np.inf
     return out

@@ -34,6 +34,7 @@ same averages from the same array.
 from __future__ import annotations
 
 import functools
+import itertools
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -261,7 +262,7 @@ def _start_averages(field: CellField, group: np.ndarray, radius: float, known: d
     new = [i for i, k in enumerate(keys) if k not in ranked]
     if new:  # each centre's average is its own: the same in any batch
         ranked.update(zip((keys[i] for i in new), disc_averages(field, group[new], radius).tolist()))
-    return np.array([ranked[k] for k in keys])
+    return np.fromiter(map(ranked.__getitem__, keys), np.float64, len(keys))
 
 
 def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: Allowed | None,
@@ -280,7 +281,7 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
     new = [k for k, i in first.items() if k not in known and (ok_list is None or ok_list[i])]
     if new:
         known.update(zip(new, disc_averages(field, grid[[first[k] for k in new]], radius).tolist()))
-    out = np.array([known.get(k, -np.inf) for k in keys])
+    out = np.fromiter(map(known.get, keys, itertools.repeat(-np.inf)), np.float64, len(keys))
     if ok is not None:
         out[~ok] = -np.inf
     return out
@@ -339,14 +340,15 @@ def coarse_starts(field: CellField, lo: np.ndarray, hi: np.ndarray, radius: floa
     values = field.at(nodes.reshape(-1, 2), key=key).reshape(nodes.shape[:2])
     inside = np.isfinite(values)
     if kept is not None and np.array_equal(kept[1], inside):  # the weights depend on where the field is
-        w, den = kept[2], kept[3]
+        w, valid, den = kept[2:]
     else:
         w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
         den = _window_sum(w, _STENCIL, 0.0)
+        valid, den = inside & (den > 0), np.maximum(den, 1e-300)
         if field.discs is not None:
-            field.discs.coarse[key] = (nodes, inside, w, den)
+            field.discs.coarse[key] = (nodes, inside, w, valid, den)
     avg = _window_sum(w * np.where(inside, values, 0.0), _STENCIL, 0.0)
-    avg = np.where(inside & (den > 0), avg / np.maximum(den, 1e-300), -np.inf)
+    avg = np.where(valid, avg / den, -np.inf)
     around = [(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j]
     peak = np.isfinite(avg)
     for shifted in _shifts(avg, around, -np.inf):  # no neighbour larger

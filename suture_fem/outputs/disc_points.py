@@ -104,8 +104,9 @@ class DiscPoints:
         self.cells: tuple[np.ndarray, np.ndarray, Any] | None = None
         #: prepared batches asked for again (a batch of disc centres with its rule weights, a coarse view's grid)
         self.batches: OrderedDict[bytes, tuple[Prepared, np.ndarray | None]] = OrderedDict()
-        #: per coarse view (its key): its grid, where the field was, the 2 pi r weights and their window sums
-        self.coarse: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
+        #: per coarse view (its key): its grid, where the field was, the 2 pi r weights, where their window sums are
+        #: positive and those sums (at least 1e-300)
+        self.coarse: dict[bytes, tuple[np.ndarray, ...]] = {}
         #: per radius, the cells' overlaps with discs (:class:`~suture_fem.outputs.disc_cells.DiscOverlap`)
         self.overlaps: dict[float, Any] = {}
         self._bytes = 0

@@ -22,9 +22,22 @@ def top_points(comm: Any, values: np.ndarray, xy: np.ndarray, separation: float,
     """The ``count`` largest point values over all ranks, at least ``separation`` apart: their (k, 2) positions."""
     order = _largest(values, 50 * count)
     local = np.column_stack([values[order], xy[order]]) if len(order) else np.zeros((0, 3))
-    merged = np.concatenate(comm.allgather(local))
-    merged = merged[np.lexsort((-merged[:, 2], -merged[:, 1], -merged[:, 0]))]  # largest first, ties by position
-    return spread(merged[:, 1:], separation, count)
+    merged = np.concatenate(comm.allgather(local)) if comm.size > 1 else local
+    return spread(merged[_descending(merged)][:, 1:], separation, count)
+
+
+def _descending(rows: np.ndarray) -> np.ndarray:
+    """The order of rows (value, r, z) by value, then r, then z, each largest first: ``np.lexsort`` of the negatives.
+
+    A stable sort of the values alone gives that order when no two values are equal and none is NaN (the
+    lexsort then never reads r or z); otherwise the lexsort itself.
+    """
+    key = -rows[:, 0]
+    order = np.argsort(key, kind="stable")
+    ranked = key[order]
+    if np.any(ranked[1:] == ranked[:-1]) or np.isnan(key).any():
+        return np.lexsort((-rows[:, 2], -rows[:, 1], key))
+    return order
 
 
 def _largest(values: np.ndarray, n: int) -> np.ndarray:

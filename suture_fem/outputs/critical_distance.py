@@ -228,7 +228,11 @@ class CriticalDistance(Quantity):
         """A region's field ``fn`` (a function of :data:`FIELDS`) at the state: (the fitted field, its point values)."""
         layers, cells, mine, xy, locate, _, discs = self.parts[region]
         values = np.concatenate([fn(state, r) for r in layers])
-        values = values.reshape(len(mine), -1)[mine] if len(mine) else np.zeros((0, 1))
+        if not len(mine):
+            values = np.zeros((0, 1))
+        else:  # a rank's own cells only (a view where they all are)
+            values = values.reshape(len(mine), -1)
+            values = values if mine.all() else values[mine]
         xy = xy if xy is not None else np.zeros((0, 1, 2))
         if self._fits[0] is not state:
             self._fits = (state, {})

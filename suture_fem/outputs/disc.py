@@ -34,6 +34,7 @@ same averages from the same array.
 from __future__ import annotations
 
 import functools
+import itertools
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -41,7 +42,7 @@ import numpy as np
 
 from suture_fem.outputs.candidates import CANDIDATES, spread, top_points
 from suture_fem.outputs.disc_cells import overlap_averages, overlap_climbs
-from suture_fem.outputs.disc_points import DiscPoints, Prepared
+from suture_fem.outputs.disc_points import DiscPoints, Prepared, row_keys
 from suture_fem.support import compat
 
 __all__ = ["CellField", "DiscMax", "DiscPoints", "coarse_starts", "disc_averages", "disc_rule",
@@ -135,18 +136,18 @@ class CellField:
         return self._reduce(Prepared.of(points, located, self.row, self.centre).values(self.columns))
 
     def at_discs(self, centres: np.ndarray, offsets: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`at` of ``[centres, centre 0 + offsets, ...]`` and the rule's 2 pi r weights (k, m) (collective).
+        """:meth:`at` of ``[centre i, centre i + offsets]`` for each centre (k, m + 1); the rule's weights (collective).
 
-        With ``discs`` (:class:`DiscPoints`), a centre's points are located once and a batch of centres is
-        prepared once, reused by every later field of the same cells (another state): the same cells, so
-        the same values, bit for bit.
+        The weights (k, m) are ``weights * |r|`` of each rule point (the 2 pi r weighting). With ``discs``
+        (:class:`DiscPoints`), a centre's points are located and prepared once, for every later field of the
+        same cells (another state): the same cells, so the same values, bit for bit.
         """
         if self.discs is None or not len(centres):
-            points = np.concatenate([centres, (centres[:, None, :] + offsets[None, :, :]).reshape(-1, 2)])
-            w = weights[None, :] * np.abs(points[len(centres):, 0]).reshape(len(centres), -1)
-            return self.at(points), w
+            points = np.concatenate([centres[:, None, :], centres[:, None, :] + offsets[None, :, :]], axis=1)
+            w = weights[None, :] * np.abs(points[:, 1:, 0])
+            return self.at(points.reshape(-1, 2)).reshape(len(centres), -1), w
         prepared, w = self.discs.prepared_discs(centres, offsets, weights, self.row, self.centre)
-        return self._reduce(prepared.values(self.columns)), w
+        return self._reduce(prepared.values(self.columns)).reshape(len(centres), -1), w
 
     def _reduce(self, local: np.ndarray) -> np.ndarray:
         """The largest of every rank's values (collective)."""
@@ -203,12 +204,14 @@ def disc_averages(field: CellField, centres: np.ndarray, radius: float, allowed:
             out[ok] = disc_averages(field, centres[ok], radius)
         return out
     offsets, weights = disc_rule(radius)
-    values, w = field.at_discs(np.asarray(centres, dtype=float), offsets, weights)
-    inside, vals = values[: len(centres)], values[len(centres):].reshape(len(centres), -1)
+    values, w = field.at_discs(np.asarray(centres, dtype=float).reshape(-1, 2), offsets, weights)
+    inside, vals = values[:, 0], values[:, 1:]
     finite = np.isfinite(vals)
-    w = np.where(finite, w, 0.0)
+    w = np.where(finite, w, 0.0)  # (not in place: the weights may be kept with their batch)
     total = w.sum(axis=1)
-    avg = np.where(total > 0, np.sum(w * np.where(finite, vals, 0.0), axis=1) / np.maximum(total, 1e-300), -np.inf)
+    weighted = np.where(finite, vals, 0.0)
+    weighted *= w
+    avg = np.where(total > 0, np.sum(weighted, axis=1) / np.maximum(total, 1e-300), -np.inf)
     return np.where(np.isfinite(inside), avg, -np.inf)
 
 
@@ -255,11 +258,11 @@ def max_disc_average(field: CellField, starts: np.ndarray | tuple[np.ndarray, ..
 def _start_averages(field: CellField, group: np.ndarray, radius: float, known: dict) -> np.ndarray:
     """:func:`disc_averages` at candidate centres (k, 2), each computed once per ``known`` (under its bytes)."""
     ranked = known.setdefault("starts", {})
-    keys = [c.tobytes() for c in group]
+    keys = row_keys(group)
     new = [i for i, k in enumerate(keys) if k not in ranked]
     if new:  # each centre's average is its own: the same in any batch
         ranked.update(zip((keys[i] for i in new), disc_averages(field, group[new], radius).tolist()))
-    return np.array([ranked[k] for k in keys])
+    return np.fromiter(map(ranked.__getitem__, keys), np.float64, len(keys))
 
 
 def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: Allowed | None,
@@ -271,18 +274,16 @@ def _grid_averages(field: CellField, grid: np.ndarray, radius: float, allowed: A
         keys = (index[:, 0] * 2**32 + index[:, 1]).tolist()
     else:
         keys = [tuple(k) for k in index.tolist()]
-    ok = allowed(grid).tolist() if allowed is not None else None
-    first: dict = {}  # each key once (the grids of several climbs overlap), at its first index
-    for i, k in enumerate(keys):  # the same on every rank: the same keys
-        if (ok is None or ok[i]) and k not in known:
-            first.setdefault(k, i)
-    new = list(first.values())
+    ok = allowed(grid) if allowed is not None else None
+    ok_list = ok.tolist() if ok is not None else None
+    # each key once (the grids of several climbs overlap), at its first index: the same on every rank
+    first = dict(zip(reversed(keys), range(len(keys) - 1, -1, -1)))
+    new = [k for k, i in first.items() if k not in known and (ok_list is None or ok_list[i])]
     if new:
-        for i, v in zip(new, disc_averages(field, grid[new], radius).tolist()):
-            known[keys[i]] = v
-    out = np.array([known.get(k, -np.inf) for k in keys])
+        known.update(zip(new, disc_averages(field, grid[[first[k] for k in new]], radius).tolist()))
+    out = np.fromiter(map(known.get, keys, itertools.repeat(-np.inf)), np.float64, len(keys))
     if ok is not None:
-        out[~np.asarray(ok, dtype=bool)] = -np.inf
+        out[~ok] = -np.inf
     return out
 
 
@@ -296,25 +297,21 @@ def _climbs(field: CellField, centres: list[np.ndarray], values: list[float], h:
     """
     k = np.arange(-half, half + 1) * h
     k_r, k_z = np.repeat(k, len(k)), np.tile(k, len(k))  # the (2 half + 1)^2 offsets, r slowest
-    active = list(range(len(centres)))
+    active = np.arange(len(centres))
     for _ in range(MAX_MOVES):
-        if not active:
+        if not len(active):
             break
-        grids = []
-        for i in active:
-            base = np.round(centres[i] / h) * h  # grid points fixed in space, not on the mesh
-            grids.append(np.column_stack([base[0] + k_r, base[1] + k_z]))
-        every = _grid_averages(field, np.concatenate(grids), radius, allowed, known).reshape(len(active), -1)
-        still = []
-        for i, grid, avgs in zip(active, grids, every):
-            j = int(np.argmax(avgs))
-            if not avgs[j] > values[i]:
-                continue
-            values[i], centres[i] = float(avgs[j]), grid[j]
-            row, col = divmod(j, 2 * half + 1)
-            if not (0 < row < 2 * half and 0 < col < 2 * half):  # on the window's edge: move on
-                still.append(i)
-        active = still
+        base = np.round(np.array([centres[i] for i in active]) / h) * h  # grid points fixed in space, not on the mesh
+        grids = np.stack([base[:, :1] + k_r, base[:, 1:] + k_z], axis=2)
+        every = _grid_averages(field, grids.reshape(-1, 2), radius, allowed, known).reshape(len(active), -1)
+        j = np.argmax(every, axis=1)
+        best = every[np.arange(len(active)), j]
+        better = best > np.array([values[i] for i in active])
+        for n in np.flatnonzero(better).tolist():
+            values[active[n]], centres[active[n]] = float(best[n]), grids[n, j[n]]
+        row, col = np.divmod(j, 2 * half + 1)
+        inside = (row > 0) & (row < 2 * half) & (col > 0) & (col < 2 * half)
+        active = active[better & ~inside]  # on the window's edge: move on
 
 
 #: The coarse view's grid spacing (fraction of R) and its stencil: the offsets (in spacings) within R.
@@ -343,16 +340,19 @@ def coarse_starts(field: CellField, lo: np.ndarray, hi: np.ndarray, radius: floa
     values = field.at(nodes.reshape(-1, 2), key=key).reshape(nodes.shape[:2])
     inside = np.isfinite(values)
     if kept is not None and np.array_equal(kept[1], inside):  # the weights depend on where the field is
-        w, den = kept[2], kept[3]
+        w, valid, den = kept[2:]
     else:
         w = np.where(inside, np.abs(nodes[..., 0]), 0.0)
         den = _window_sum(w, _STENCIL, 0.0)
+        valid, den = inside & (den > 0), np.maximum(den, 1e-300)
         if field.discs is not None:
-            field.discs.coarse[key] = (nodes, inside, w, den)
+            field.discs.coarse[key] = (nodes, inside, w, valid, den)
     avg = _window_sum(w * np.where(inside, values, 0.0), _STENCIL, 0.0)
-    avg = np.where(inside & (den > 0), avg / np.maximum(den, 1e-300), -np.inf)
+    avg = np.where(valid, avg / den, -np.inf)
     around = [(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j]
-    peak = np.all([avg >= shifted for shifted in _shifts(avg, around, -np.inf)], axis=0) & np.isfinite(avg)
+    peak = np.isfinite(avg)
+    for shifted in _shifts(avg, around, -np.inf):  # no neighbour larger
+        peak &= avg >= shifted
     idx = np.flatnonzero(peak)
     return spread(nodes.reshape(-1, 2)[idx[np.argsort(-avg.reshape(-1)[idx], kind="stable")]], radius, count)
 
@@ -369,7 +369,8 @@ def _coarse_nodes(lo: np.ndarray, hi: np.ndarray, radius: float) -> np.ndarray:
 
 def _shifts(a: np.ndarray, offsets: list[tuple[int, int]], fill: float) -> list[np.ndarray]:
     """``a`` at index (k + i, l + j) for every (k, l), for each offset (i, j), ``fill`` beyond its edges (views)."""
-    padded = np.pad(a, 2, constant_values=fill)
+    padded = np.full((a.shape[0] + 4, a.shape[1] + 4), fill, dtype=a.dtype)
+    padded[2:-2, 2:-2] = a
     return [padded[2 + i: 2 + i + a.shape[0], 2 + j: 2 + j + a.shape[1]] for i, j in offsets]
 
 

@@ -24,6 +24,7 @@ grouped by reach, scipy's k-d tree over their centroids: :mod:`suture_fem.output
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from typing import Any
 
@@ -31,9 +32,11 @@ import numpy as np
 
 from suture_fem.outputs.ball_cells import near_cells, reach_groups, reduced_averages
 from suture_fem.outputs.climb import climb
+from suture_fem.outputs.disc_points import Table, ranges, row_keys
 from suture_fem.support import compat
 
-#: Most (disc, cell) pairs whose weights are kept for later fields and states (28 bytes each: 28 MB per region).
+#: Most (disc, cell) pairs whose weights are kept for later fields and states (40 bytes each: 40 MB per region), and
+#: most pairs of batches of centres kept gathered (as many again).
 KEPT_PAIRS = 1_000_000
 #: The last stage's pattern search: the spacings of its 3 x 3 grids (fractions of R, each a multiple of the last;
 #: the finest is the point rule's search's finest) and the largest number of moves per spacing.
@@ -52,33 +55,103 @@ class DiscOverlap:
         self.reach = np.linalg.norm(self.x - self.centroids[:, None], axis=2).max(axis=1)
         self.groups = reach_groups(self.centroids, self.reach, radius) if len(self.x) else []
         self.whole = (1.0 + np.eye(3)) / 12.0  # int_T phi_k phi_l dA / |T|
-        self.kept: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        self.pairs = 0
-        self.sums_kept: dict[bytes, tuple[np.ndarray, ...]] = {}  # per batch of centres: see sums
+        #: per centre kept (``index``: its bytes to its number): its pairs in ``pairs`` from ``start``, ``count`` of
+        #: them, and ``held``: 1.0 where one of the cells holds the centre (:meth:`both`), else 0.0
+        self.index: dict[bytes, int] = {}
+        self.centres = Table(start=np.int64, count=np.int64, held=np.float64)
+        #: per (disc, cell) pair of a kept disc: the cell, its vertex weights w_k (3) and their sum
+        self.pairs = Table(cells=np.intp, w=(np.float64, 3), w_sum=np.float64)
+        self._offsets: tuple[np.ndarray, np.ndarray] | None = None  # a fit's cell centres, the vertices' offsets
+        #: per batch of centres asked for again (its bytes): its pairs gathered, up to KEPT_PAIRS pairs in all
+        self.batches: dict[bytes, tuple[np.ndarray, ...]] = {}
         self.batched = 0
-        self.held: dict[bytes, float] = {}  # per centre: 1.0 where one of the cells holds it, else 0.0
 
     def weights(self, centres: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Per centre (k, 2): (cells, vertex weights (m, 3) with a positive sum) of its disc: see the module.
-
-        The centres not kept are computed together (one :func:`cut_moments` for all their cut cells).
-        """
+        """Per centre (k, 2): (cells, vertex weights (m, 3) with a positive sum) of its disc: see the module."""
         centres = np.asarray(centres, dtype=float).reshape(-1, 2)
-        keys = [c.tobytes() for c in centres]
-        new = [i for i, key in enumerate(keys) if key not in self.kept]
-        found = {}
-        if new:
-            parts = [np.concatenate(near_cells(self.groups, centres[i], self.radius)) if self.groups
-                     else np.zeros(0, np.int64) for i in new]
-            counts = [len(p) for p in parts]
-            near = np.concatenate(parts)
-            w = self._weights(np.repeat(centres[new], counts, axis=0), near)
-            for i, (a, b) in zip(new, zip(np.cumsum(counts) - counts, np.cumsum(counts))):
-                keep = w[a:b].sum(axis=1) > 0
-                found[keys[i]] = out = near[a:b][keep].astype(np.int32), w[a:b][keep]
-                if self.pairs + len(out[0]) <= KEPT_PAIRS:
-                    self.kept[keys[i]], self.pairs = out, self.pairs + len(out[0])
-        return [found[key] if key in found else self.kept[key] for key in keys]
+        ids, sizes = self._numbers(centres, None)
+        pairs, start, count = self.pairs, self.centres.start[ids], self.centres.count[ids]
+        out = [(pairs.cells[a:a + n].copy(), pairs.w[a:a + n].copy()) for a, n in zip(start.tolist(), count.tolist())]
+        if sizes is not None:
+            self._truncate(sizes)
+        return out
+
+    def both(self, vertex_values: np.ndarray, centres: np.ndarray, locate: Any) -> np.ndarray:
+        """(m, 3): this rank's int f 2 pi r dA and int 2 pi r dA per disc, and 1.0 where a cell holds its centre.
+
+        From the cells' vertex values (n, 3); ``locate``: the cells' locator. Each centre's cells and weights are
+        computed once (the centres not kept together: one :func:`cut_moments` for all their cut cells) and kept,
+        up to :data:`KEPT_PAIRS` (cell, disc) pairs in all; a batch gathers its centres' pairs, and a batch asked
+        for again (a pattern search from where an earlier answer's was) reuses them, up to as many pairs again.
+        """
+        key = centres.tobytes()
+        batch = self.batches.get(key)
+        if batch is None:
+            ids, sizes = self._numbers(centres, locate)
+            count = self.centres.count[ids]
+            has = count > 0  # reduceat: each centre's cells, from its first (none: skipped)
+            take = ranges(self.centres.start[ids], count)
+            batch = (self.pairs.cells[take], self.pairs.w[take], self.pairs.w_sum[take], has,
+                     (np.cumsum(count) - count)[has], self.centres.held[ids])
+            if sizes is not None:
+                self._truncate(sizes)
+            elif self.batched + len(take) <= KEPT_PAIRS:
+                self.batches[key], self.batched = batch, self.batched + len(take)
+        cells, w, w_sum, has, first, held = batch
+        out = np.zeros((len(centres), 3))
+        out[:, 2] = held
+        if len(cells):
+            per_cell = np.stack([np.einsum("nk,nk->n", vertex_values[cells], w), w_sum], axis=1)
+            out[has, :2] = np.add.reduceat(per_cell, first, axis=0)
+        return out
+
+    def vertex_offsets(self, centre: np.ndarray) -> np.ndarray:
+        """The cells' vertices' offsets (n, 3, 2) from a fit's cell centres ``centre`` (n, 2) (kept per array)."""
+        if self._offsets is None or self._offsets[0] is not centre:
+            self._offsets = (centre, self.x - centre[:, None, :])
+        return self._offsets[1]
+
+    def _numbers(self, centres: np.ndarray, locate: Any) -> tuple[np.ndarray, tuple[int, int] | None]:
+        """The centres' numbers, the new ones added; the tables' sizes to go back to when they were not to be kept.
+
+        ``locate`` None: whether a cell holds a new centre is not asked (0.0).
+        """
+        keys = row_keys(centres)
+        ids = np.fromiter(map(self.index.get, keys, itertools.repeat(-1)), np.int64, len(keys))
+        if not len(ids) or ids.min() >= 0:
+            return ids, None
+        first: dict[bytes, int] = {}  # each new centre once, at its first index
+        for i in np.flatnonzero(ids < 0).tolist():
+            first.setdefault(keys[i], i)
+        sizes = self.centres.size, self.pairs.size
+        found = dict(zip(first, self._add(centres[list(first.values())], locate).tolist()))
+        ids = np.fromiter((found[k] if v < 0 else v for k, v in zip(keys, ids.tolist())), np.int64, len(keys))
+        if self.pairs.size > KEPT_PAIRS or locate is None:
+            return ids, sizes
+        self.index.update(found)
+        return ids, None
+
+    def _truncate(self, sizes: tuple[int, int]) -> None:
+        self.centres.resize(sizes[0])
+        self.pairs.resize(sizes[1])
+
+    def _add(self, centres: np.ndarray, locate: Any) -> np.ndarray:
+        """Add new centres (k, 2): their cells, weights and whether a cell holds them; their numbers (k,)."""
+        k = len(centres)
+        parts = [np.concatenate(near_cells(self.groups, c, self.radius)) if self.groups else np.zeros(0, np.int64)
+                 for c in centres]
+        counts = np.array([len(p) for p in parts], dtype=np.int64)
+        near = np.concatenate(parts) if parts else np.zeros(0, np.int64)
+        w = self._weights(np.repeat(centres, counts, axis=0), near)
+        keep = w.sum(axis=1) > 0
+        count = np.bincount(np.repeat(np.arange(k), counts)[keep], minlength=k)
+        held = np.zeros(k)
+        if locate is not None and k:
+            idx, _ = locate(np.column_stack([centres, np.zeros(k)]), keep=False)
+            held[idx] = 1.0
+        base = self.pairs.append(cells=near[keep], w=w[keep], w_sum=w[keep].sum(axis=1))
+        start = self.centres.append(start=base + np.cumsum(count) - count, count=count, held=held)
+        return np.arange(start, start + k)
 
     def _weights(self, c: np.ndarray, cells: np.ndarray) -> np.ndarray:
         """w_k (n, 3) of the discs at c (n, 2) on cells (n,): whole, 0 outside, cut ones by :func:`cut_moments`."""
@@ -98,44 +171,6 @@ class DiscOverlap:
             x_r_int = r_c[:, None] * m1 + m2[:, :, 0]
             w[cut] = coef[:, 0] * r_int[:, None] + np.einsum("nik,ni->nk", coef[:, 1:], x_r_int)
         return 2.0 * np.pi * w
-
-    def sums(self, vertex_values: np.ndarray, centres: np.ndarray) -> np.ndarray:
-        """(m, 2): this rank's int f 2 pi r dA and int 2 pi r dA per disc, from the cells' vertex values (n, 3).
-
-        A batch of centres asked for again (the same bytes) reuses its cells' weights joined, their sums per
-        cell and the first cell of each centre, kept up to :data:`KEPT_PAIRS` (cell, disc) pairs in all.
-        """
-        key = centres.tobytes()
-        batch = self.sums_kept.get(key)
-        if batch is None:
-            parts = self.weights(centres)
-            counts = np.array([len(cells) for cells, _ in parts])
-            has = counts > 0  # reduceat: each centre's cells, from its first (none: skipped)
-            cells = np.concatenate([c for c, _ in parts]) if parts else np.zeros(0, np.int32)
-            w = np.concatenate([w for _, w in parts]) if parts else np.zeros((0, 3))
-            batch = cells, w, w.sum(axis=1), has, (np.cumsum(counts) - counts)[has]
-            if self.batched + len(cells) <= KEPT_PAIRS:
-                self.sums_kept[key], self.batched = batch, self.batched + len(cells)
-        cells, w, w_sum, has, first = batch
-        out = np.zeros((len(centres), 2))
-        if len(cells):
-            per_cell = np.stack([np.einsum("nk,nk->n", vertex_values[cells], w), w_sum], axis=1)
-            out[has] = np.add.reduceat(per_cell, first, axis=0)
-        return out
-
-    def holds(self, centres: np.ndarray, locate: Any) -> np.ndarray:
-        """(m,): 1.0 where one of the cells holds the centre (``locate``: the cells' locator), else 0.0; kept."""
-        keys = [c.tobytes() for c in centres]
-        new = [i for i, key in enumerate(keys) if key not in self.held]
-        found: dict[bytes, float] = {}
-        if new:
-            idx, _ = locate(np.column_stack([centres[new], np.zeros(len(new))]), keep=False)
-            inside = np.zeros(len(new))
-            inside[idx] = 1.0
-            found = dict(zip((keys[i] for i in new), inside.tolist()))
-            if len(self.held) < KEPT_PAIRS:
-                self.held.update(found)
-        return np.array([found[key] if key in found else self.held[key] for key in keys])
 
 
 def cut_moments(x: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -190,7 +225,7 @@ def field_overlap(field: Any, radius: float) -> tuple[DiscOverlap, np.ndarray]:
         kept[radius] = DiscOverlap(vertices.reshape(-1, 3, 2), radius)
     overlap = kept[radius]
     if getattr(field, "_vertex_values", None) is None:  # a + b dr + c dz at each vertex, dr, dz from the cell's centre
-        d = overlap.x - field.centre[:, None, :]
+        d = overlap.vertex_offsets(field.centre)
         a, b, c = (field.coeffs[:, i:i + 1] for i in range(3))
         field._vertex_values = a + b * d[..., 0] + c * d[..., 1]
     return overlap, field._vertex_values
@@ -203,18 +238,18 @@ def overlap_averages(field: Any, centres: np.ndarray, radius: float,
     As :func:`suture_fem.outputs.disc.disc_averages`: -inf for a centre no cell holds or ``allowed`` rules out.
     """
     centres = np.asarray(centres, dtype=float).reshape(-1, 2)
-    out = np.full(len(centres), -np.inf)
-    ok = allowed(centres) if allowed is not None else np.ones(len(centres), dtype=bool)
-    if not ok.any():  # centres and mask are the same on every rank: collective on all or on none
+    if allowed is not None:
+        out = np.full(len(centres), -np.inf)
+        ok = allowed(centres)
+        if ok.any():  # centres and mask are the same on every rank: collective on all or on none
+            out[ok] = overlap_averages(field, centres[ok], radius)
         return out
-    c = centres[ok]
-    both = np.zeros((len(c), 3))
-    if len(field.cells):
-        overlap, values = field_overlap(field, radius)
-        both[:, :2] = overlap.sums(values, c)
-        both[:, 2] = overlap.holds(c, field.locate)
-    out[ok] = reduced_averages(field.comm, both)
-    return out
+    if not len(centres):
+        return np.full(0, -np.inf)
+    if not len(field.cells):
+        return reduced_averages(field.comm, np.zeros((len(centres), 3)))
+    overlap, values = field_overlap(field, radius)
+    return reduced_averages(field.comm, overlap.both(values, centres, field.locate))
 
 
 def overlap_climbs(field: Any, starts: list[np.ndarray], radius: float, allowed: Any,

@@ -40,6 +40,7 @@ from typing import Any
 import dolfinx
 import dolfinx.fem
 import dolfinx.fem.petsc
+import dolfinx.mesh
 import numpy as np
 import ufl
 from petsc4py import PETSc
@@ -109,6 +110,7 @@ class Interface(Quantity):
         self.thread_xy_mm = xy[self.thread_surface]
         self._area_normal: tuple[np.ndarray, np.ndarray] | None = None
         self._layout: dict[str, tuple[Any, ...]] | None = None
+        self._near: Any = None  # the tissue's residual over its cells at the interface (:func:`_near_nodes`)
 
     @staticmethod
     def describe(output: Any) -> dict[str, str]:
@@ -164,7 +166,9 @@ class Interface(Quantity):
     def _tissue_forces(self) -> np.ndarray:
         """The tissue's part of the residual at the interface nodes: (n, 2) forces (N) on the tissue."""
         physics = self.physics
-        b = dolfinx.fem.petsc.assemble_vector(physics.form("tissue_residual"))
+        if self._near is None:
+            self._near = _near_nodes(physics, self.nodes)
+        b = dolfinx.fem.petsc.assemble_vector(self._near)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         values = b.array.copy()
         b.destroy()
@@ -213,6 +217,26 @@ class Interface(Quantity):
             normal = np.divide(normal, length[:, None], out=np.zeros_like(normal), where=length[:, None] > 0)
             self._area_normal = (area, normal)
         return self._area_normal
+
+
+def _near_nodes(physics: Any, nodes: np.ndarray) -> Any:
+    """``Physics.tissue_residual`` over the tissue cells that hold one of the owned ``nodes`` (on any rank), compiled.
+
+    The same integrals (so the same compiled kernels: the cells a form integrates are not in its signature)
+    over fewer cells, in the same order: at the nodes every entry is the same sum of the same cells' parts.
+    """
+    V, mesh = physics.V, physics.mesh
+    mark = dolfinx.fem.Function(V)
+    bs = V.dofmap.index_map_bs
+    mark.x.array[:] = 0.0
+    mark.x.array[bs * np.asarray(nodes, dtype=np.int64)] = 1.0
+    mark.x.scatter_forward()  # a ghost copy of a node learns it is one
+    on = mark.x.array.reshape(-1, bs)[:, 0] > 0
+    tags = physics.tagged.cell_tags
+    cells = np.asarray(tags.indices, dtype=np.int32)
+    near = on[compat.cell_dofs(V)[cells]].any(axis=1)
+    kept = dolfinx.mesh.meshtags(mesh, mesh.topology.dim, cells[near], np.asarray(tags.values)[near])
+    return compat.form(ufl.Form([i.reconstruct(subdomain_data=kept) for i in physics.tissue_residual.integrals()]))
 
 
 def _nodes(V: Any) -> int:

@@ -199,6 +199,20 @@ def test_spread_takes_candidates_in_order_each_far_enough_from_those_taken_befor
         assert np.array_equal(spread(candidates, separation, count), np.array(expected).reshape(-1, 2))
 
 
+def test_the_candidates_order_is_the_lexsort_of_value_r_and_z_largest_first():
+    from suture_fem.outputs.candidates import _descending
+
+    rng = np.random.default_rng(8)
+    for trial in range(60):
+        n = int(rng.integers(0, 80))
+        rows = rng.normal(size=(n, 3)) if trial % 3 else np.round(rng.normal(size=(n, 3)), 1)  # equal values
+        if trial % 7 == 3 and n:
+            rows[int(rng.integers(0, n)), 0] = np.nan
+        if trial % 5 == 4 and n > 1:
+            rows[:2, 0] = -0.0, 0.0
+        assert np.array_equal(_descending(rows), np.lexsort((-rows[:, 2], -rows[:, 1], -rows[:, 0])))
+
+
 def test_the_largest_values_by_partition_are_the_set_the_sort_takes():
     from suture_fem.outputs.candidates import _largest
 
@@ -242,3 +256,23 @@ def test_a_field_of_two_sets_of_cells_is_their_two_fits_in_order_and_the_coarse_
         kept = CellField(mesh, fresh.cells, xy, f(xy[..., 0], xy[..., 1]), discs.locate, discs)
         assert np.array_equal(coarse_starts(kept, *np.array(BOX), RADIUS), coarse_starts(fresh, *np.array(BOX), RADIUS))
     assert len(discs.coarse) == 1
+
+
+def test_disc_averages_from_kept_points_are_the_fresh_ones_bit_for_bit():
+    from suture_fem.outputs.disc_points import DiscPoints
+    from suture_fem.support import compat
+
+    mesh = _mesh(12)
+    fresh = _field(mesh, _spikes_and_bump)
+    xy = np.einsum("qv,nvd->nqd", np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]),
+                   mesh.geometry.x[compat.geometry_dofs(mesh)[fresh.cells][:, :3], :2])
+    rng = np.random.default_rng(3)
+    batches = [rng.uniform([0.4, -0.1], [1.6, 1.1], (n, 2)) for n in (7, 30, 1)]
+    batches.append(np.concatenate([batches[1][5:], batches[0], [[3.0, 3.0]]]))  # kept, new and outside centres
+    for limit in (0, 2_000_000):  # nothing kept (each batch prepared alone), and every centre kept
+        discs = DiscPoints(compat.cell_locator(mesh, fresh.cells), limit=limit)
+        for f in (_spikes_and_bump, lambda r, z: 1.0 + r * z):
+            kept = CellField(mesh, fresh.cells, xy, f(xy[..., 0], xy[..., 1]), discs.locate, discs)
+            alone = _field(mesh, f)
+            for centres in batches:
+                assert np.array_equal(disc_averages(kept, centres, RADIUS), disc_averages(alone, centres, RADIUS))

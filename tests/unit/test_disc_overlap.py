@@ -90,3 +90,27 @@ def test_the_search_reports_the_largest_overlap_average_and_not_the_point_rule_s
     k = np.arange(-8, 9) * RADIUS / 16
     scan = overlap_averages(field, np.array(found.at) + np.stack(np.meshgrid(k, k), -1).reshape(-1, 2), RADIUS)
     assert found.value >= scan.max() * (1 - 1e-4)
+
+
+@pytest.mark.parametrize("kept_pairs", [0, 1_000_000])
+def test_overlap_averages_from_kept_weights_are_the_fresh_ones_bit_for_bit(monkeypatch, kept_pairs):
+    # a region's overlaps kept for the next field (nothing kept past the limit) against a fresh field's own
+    from suture_fem.outputs import disc_cells
+    from suture_fem.outputs.disc import CellField
+    from suture_fem.outputs.disc_points import DiscPoints
+    from suture_fem.support import compat
+
+    monkeypatch.setattr(disc_cells, "KEPT_PAIRS", kept_pairs)
+    mesh = _mesh(12)
+    first = _field(mesh, lambda r, z: r * z)
+    discs = DiscPoints(first.locate)
+    rng = np.random.default_rng(5)
+    batches = [rng.uniform([0.4, -0.1], [1.6, 1.1], (n, 2)) for n in (9, 25)]
+    batches.append(np.concatenate([batches[1][3:], batches[0], [[3.0, 3.0]]]))  # kept, new and outside centres
+    xy = np.einsum("qv,nvd->nqd", np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]),
+                   mesh.geometry.x[compat.geometry_dofs(mesh)[first.cells][:, :3], :2])
+    for f in (lambda r, z: np.sin(5 * r) + z**2, lambda r, z: 1.0 + r * z):
+        kept = CellField(mesh, first.cells, xy, f(xy[..., 0], xy[..., 1]), discs.locate, discs)
+        for centres in batches:
+            assert np.array_equal(overlap_averages(kept, centres, RADIUS), overlap_averages(_field(mesh, f), centres,
+                                                                                            RADIUS))

@@ -299,8 +299,10 @@ class NewtonSolver(Linearised):
 
         The reason is the name of SNES's converged reason (e.g. "CONVERGED_FNORM_ABS"), or
         :data:`PETSC_ERROR`. With Coulomb friction, solves until its slip bound settles
-        (:func:`~suture_fem.physics.effects.friction.settle`; iterations summed).
+        (:func:`~suture_fem.physics.effects.friction.settle`; iterations, domain rejections and inertia shifts
+        summed over its solves).
         """
+        self.outside_domain = self.inertia_shifts = 0
         if not self.laws:
             return self._solve_once()
         return settle(self.laws, self._solve_once, self.absolute_tolerance)
@@ -309,7 +311,6 @@ class NewtonSolver(Linearised):
         """One SNES solve from the current state (see :meth:`solve`)."""
         self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
         self.jacobian_current = False
-        self.outside_domain = self.inertia_shifts = 0
         self.last_violation = None
         t0 = time.perf_counter()
         a0 = self.timings.assembly + self.timings.guard

@@ -2,13 +2,13 @@
 
     .venv/bin/python benchmarks/warm_answers.py [--scales 0.9,1.1] [--out benchmarks/out/warm_answers.json]
 
-Solves the paper ramp (P1 r0) once and keeps the state at each report force; then, for each scale, solves
-the same Model again at that ``materials.tissue_scale`` with :func:`suture_fem.solve.stepping.ramp`'s ``warm``
-(each report force's start state: the previous answer's) and a fresh Model from rest (what the command line
-computes), and prints a table: Newton iterations and CPU of both, and the largest relative difference of
-results.json's floats (the force-displacement curve and the solver's counts aside: a warm ramp steps
-straight to the report forces). ``Model.solve`` has no warm start; this script hands it to the ramp by
-replacing ``suture_fem.model.ramp`` for the warm solve (docs/api.md, "A warm start for later answers").
+Solves the paper ramp (P1 r0) once; then, for each scale, solves the same Model again at that
+``materials.tissue_scale`` from the previous answer's states (``model.solve(start="previous")``: each report
+force's start state is the previous answer's) and a fresh Model from rest (what the command line computes),
+and prints a table: Newton iterations and CPU of both, and the largest relative difference of results.json's
+floats (the force-displacement curve and the solver's counts aside: a warm ramp steps straight to the report
+forces). docs/api.md, "A warm start for later answers"; benchmarks/many_answers.py ``--start previous`` puts
+it beside the command line.
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ import time
 from pathlib import Path
 
 import suture_fem as sf
-import suture_fem.model as model_module
 
 #: results.json keys (any part of the path) not compared: timings, counts, the curve's points, the residuals.
 NOT_COMPARED = ("timings", "wall_time", "process", "newton_iterations", "load_steps", "steps", "cutbacks",
@@ -53,21 +52,11 @@ def differences(a: dict, b: dict) -> list[tuple[float, str]]:
     return sorted(rows, reverse=True)
 
 
-def solve(model: sf.Model, out: Path, warm: dict[float, object] | None) -> tuple[dict, float]:
-    """Solve (from the warm states, if given); results.json and the CPU seconds."""
-    real = model_module.ramp
-    if warm is not None:
-        def ramp(*args, **kwargs):
-            kwargs["warm"] = lambda force: warm.get(round(force, 9))
-            return real(*args, **kwargs)
-        model_module.ramp = ramp
-    try:
-        start = time.process_time()
-        model.solve(out)
-        cpu = time.process_time() - start
-    finally:
-        model_module.ramp = real
-    return json.loads((out / "results.json").read_text()), cpu
+def solve(model: sf.Model, out: Path, start: str) -> tuple[dict, float]:
+    """Solve (from rest, or from the previous answer's states); results.json and the CPU seconds."""
+    t0 = time.process_time()
+    model.solve(out, start=start)
+    return json.loads((out / "results.json").read_text()), time.process_time() - t0
 
 
 def main() -> None:
@@ -80,15 +69,12 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         model = sf.Model(base)
-        solve(model, Path(tmp) / "first", None)
-        states = {}
-        for report in model.reports():
-            states[round(report.force_n, 9)] = model.u.x.array.copy()
+        solve(model, Path(tmp) / "first", "rest")
         for scale in (float(s) for s in args.scales.split(",")):
             model.set({"materials.tissue_scale": scale})
-            warm, warm_cpu = solve(model, Path(tmp) / f"warm_{scale}", states)
+            warm, warm_cpu = solve(model, Path(tmp) / f"warm_{scale}", "previous")
             fresh, fresh_cpu = solve(sf.Model(base.with_values({"materials.tissue_scale": scale})),
-                                     Path(tmp) / f"fresh_{scale}", None)
+                                     Path(tmp) / f"fresh_{scale}", "rest")
             diffs = differences(warm, fresh)
             usum = max(abs(w["usum_mm"] / f["usum_mm"] - 1) for w, f in zip(warm["at_forces"], fresh["at_forces"]))
             rows.append({"scale": scale, "warm_newton": warm["newton_iterations"], "warm_cpu_s": warm_cpu,

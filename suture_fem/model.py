@@ -7,6 +7,7 @@
     results.usum_mm, results.at_forces[-1].seqv_pa  # the answer; model.u, model.mesh: the solved state
     model.set({"materials.tissue_scale": 1.2})      # a new Constant value: no new mesh, no new form
     stiffer = model.solve()                         # from rest again, on the same mesh and forms
+    warm = model.set({"materials.tissue_scale": 1.1}).solve(start="previous")  # from the last answer's states
     for report in model.reports():                  # each reported force's state, set on the model in turn
         cells = model.outputs.cell_maxima()         # stress per cell for a picture, any output of that state
 
@@ -27,7 +28,7 @@ from __future__ import annotations
 import logging
 import time
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -147,10 +148,16 @@ class Model:
         """The displacement (a dolfinx Function, m): the solved state after :meth:`solve`."""
         return self.physics.u
 
-    def solve(self, out_dir: str | Path | None = None, on_report: OnReport | None = None) -> Results:
+    def solve(self, out_dir: str | Path | None = None, on_report: OnReport | None = None, *,
+              start: str = "rest") -> Results:
         """Follow the load ramp from rest; return the Results (and write ``out_dir/results.json``, if given).
 
-        Every call starts from rest at the model's current values. The solved state is ``model.u`` and
+        By default (``start="rest"``) every call starts from rest at the model's current values.
+        ``start="previous"``: each reported force of a force-controlled pull is first tried from the
+        previous solve's state at that force (a warm start: about half the Newton iterations of a later
+        answer at nearby values; its numbers within the solver's tolerance of the answer from rest, not
+        the same bits; the force-displacement curve then has the reported forces only; docs/api.md).
+        Contact's multipliers and slip bounds are not carried over. The solved state is ``model.u`` and
         ``model.outputs`` once solve returns, and :meth:`reports` sets the state of each reported force.
         ``on_report(force_n, outputs)`` (on every rank, at each reported force) is deprecated: use
         :meth:`reports`. Raises SolveStopped after writing the converged part when the ramp cannot be
@@ -159,6 +166,7 @@ class Model:
         if on_report is not None:
             warnings.warn("Model.solve's on_report is deprecated: after solve(), model.reports() sets the state of "
                           "each reported force on the model", DeprecationWarning, stacklevel=2)
+        warm = self._previous_states(start)
         clock = self._clock if self._solves == 0 else Clock(meshing=self._clock.meshing, timings=Timings())
         self._solves += 1
         out = output_folder(out_dir, self.comm)
@@ -170,7 +178,7 @@ class Model:
             steps.open_fields()
             if self._newton is None:
                 self._newton = NewtonSolver.of(self.physics, self.scene.solver, clock.timings)
-            history = ramp(self.physics, self.scene, steps.converged, clock.timings, solver=self._newton)
+            history = ramp(self.physics, self.scene, steps.converged, clock.timings, solver=self._newton, warm=warm)
             steps.close()
             signals.check(self.comm)  # a signal since the last step (on any rank): interrupted, not converged
         except BaseException as exc:
@@ -181,6 +189,16 @@ class Model:
                 self._newton.release()
         steps.finished(history)
         return steps.results
+
+    def _previous_states(self, start: str) -> Callable[[float], Any] | None:
+        """The warm start of ``solve(start=...)``: the last solve's state at a reported force, or None."""
+        if start not in ("rest", "previous"):
+            raise ValueError(f'Model.solve start must be "rest" or "previous", got {start!r}')
+        if start == "previous" and (self.physics.control is not None or self.physics.dynamics is not None):
+            raise ValueError('Model.solve start="previous" needs the quasi-static force ramp (loading.control = '
+                             '"force", effects.inertia = false): it starts each reported force from the last answer')
+        kept = {round(s.force_n, 9): s.state for s in self._reported} if start == "previous" else {}
+        return (lambda force_n: kept.get(round(force_n, 9))) if kept else None
 
     def reports(self) -> Iterator[Report]:
         """Each reported force of the last solve in turn, with the model set to its solved state.

@@ -111,3 +111,19 @@ def test_a_key_that_needs_a_new_mesh_or_new_forms_is_refused_in_one_line(model, 
         model.set(values)
     assert "\n" not in str(err.value) and all(w in str(err.value) for w in words), str(err.value)
     assert model.scene is before and float(model.physics.parameters["materials.tissue_scale"].value) == 1.0
+
+
+def test_a_warm_start_from_the_previous_answer_takes_fewer_iterations_to_the_same_answer(model, first):
+    """``solve(start="previous")``: each reported force first tried from the last solve's state there."""
+    model.solve()  # the previous answer: at the base values
+    cold_fresh = Model(BASE.with_values({"materials.tissue_scale": 1.2})).solve().to_dict()
+    warm = model.set({"materials.tissue_scale": 1.2}).solve(start="previous").to_dict()
+    assert warm["status"] == "converged" and warm["newton_iterations"] < cold_fresh["newton_iterations"]
+    assert [p[0] for p in warm["force_displacement"]] == [0.0, 0.5, 1.0]  # straight to the reported forces
+    for a, b in zip(warm["at_forces"], cold_fresh["at_forces"]):  # the same state to the solver's tolerance
+        for key in ("usum_mm", "thread_end_displacement_mm", "strain_energy_j", "seqv_cd_pa", "eptoeqv_cd"):
+            assert a[key] == pytest.approx(b[key], rel=1e-9), key
+    with pytest.raises(ValueError, match='start must be "rest" or "previous"'):
+        model.solve(start="warm")
+    model.set({"materials.tissue_scale": 1.0})
+    close(model.solve().to_dict(), first, rel=0.0)  # from rest again by default: the same bits as before

@@ -1,0 +1,25 @@
+"""The stop's advice names what carries the scene further, for the contact stops whose cure is known."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+from suture_fem.solve.diagnosis import advice
+from suture_fem.support.errors import StopCause
+
+
+def physics(degree=2, mixed=False, thread=True, friction=False, cones=False):
+    effects = SimpleNamespace(cone_contact=cones, unilateral_thread=thread, frictional_thread=friction, mixed=mixed)
+    return SimpleNamespace(effects=effects, degree=degree)
+
+
+def test_a_frictionless_thread_in_the_mixed_formulation_is_pointed_to_the_displacement_formulation():
+    text = advice(physics(mixed=True), StopCause.INVERTED_ELEMENT)
+    assert 'effects.incompressibility = "displacement" reaches 4 N' in text and "0.82 N" in text
+    plain = advice(physics(), StopCause.INVERTED_ELEMENT)
+    assert "incompressibility" not in plain and 'effects.thread_interface = "sliding"' in plain
+
+
+def test_no_contact_advice_for_a_stop_it_does_not_explain():
+    assert advice(physics(mixed=True), StopCause.GENT_LIMIT) == ""
+    assert "mesh.degree = 1" in advice(physics(cones=True), StopCause.NEWTON_DIVERGENCE)

@@ -30,8 +30,8 @@ NOT_SETTLED = "friction_bound_not_settled"
 #: A fixed point's first solve stops at this fraction of the friction law's residual at its start (N; an inexact
 #: solve in the sense of Eisenstat and Walker's forcing terms): the chord steps and the last solve finish it.
 FORCING = 0.1
-#: Chord steps (the last factorisation, a residual, a back-substitution) go on while every update of the bound
-#: shrinks the law's residual by this factor at least; then full Newton solves, as without them.
+#: A chord step (the last factorisation, a residual, a back-substitution) follows an update of the bound that
+#: shrank the law's residual by this factor at least; after any other update a full Newton solve, as without them.
 CHORD_CONTRACTION = 0.5
 #: Aitken's relaxation factor is kept in this range (a factor above 1 extrapolates).
 OMEGA_MIN, OMEGA_MAX = 0.01, 2.0
@@ -92,10 +92,11 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
                   solves, its, chords, now, tolerance())
         if held and solved and loose == 0.0:
             return converged, its, reason
-        if _chord_on(chord, held, now, last, chords) and chord():  # type: ignore[misc]
-            chords, solved, last = chords + 1, False, now
+        take, last = _chord_on(chord, held, now, last, chords), now
+        if take and chord():  # type: ignore[misc]
+            chords, solved = chords + 1, False
             continue
-        chord, loose = None, 0.0  # from here on full solves
+        loose = 0.0
         converged, more, reason = solve_once(loose)
         its, solves, solved = its + more, solves + 1, True
     return False, its, NOT_SETTLED

@@ -15,7 +15,9 @@ The bound b is held fixed during a Newton solve (Tresca friction: the terms are 
 w b s ln cosh(g / s), so the Jacobian stays symmetric and the line search's energy objective stays
 exact), and moved to mu p between solves until it settles: a fixed point on the contact pressure
 (Panagiotopoulos's process; Wriggers, Computational Contact Mechanics, 2006, section 10.5), relaxed by
-Aitken's factor (:meth:`ThreadFriction.update_bound`). A step is converged when the friction forces
+Aitken's factor (:meth:`ThreadFriction.update_bound`); between its updates the state follows by chord steps
+with the last factorisation, and a last full Newton solve gives the answer
+(:func:`~suture_fem.physics.effects.fixed_point.settle`). A step is converged when the friction forces
 differ from Coulomb's by less than the solver's absolute tolerance (:mod:`suture_fem.solve.newton`).
 Coupling the bound to the pressure inside Newton (the non-symmetric Coulomb tangent) was tried first:
 a track node at the open/closed kink with a large slip switches its friction force on and off between
@@ -73,6 +75,8 @@ class SlipBound:
     mu: float
     weight: np.ndarray
     bound: np.ndarray
+    #: :meth:`residual` before the last :meth:`update_bound` (N)
+    last_residual: float = math.inf
 
     def pressure(self) -> np.ndarray:
         """The contact pressure at each pair now (Pa)."""

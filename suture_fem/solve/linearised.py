@@ -14,6 +14,7 @@ import time
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem.support import compat
@@ -32,6 +33,8 @@ class Linearised:
     timings: Any
     #: set when a Jacobian was assembled in the current solve (the factorisation is then of this solve)
     jacobian_current: bool = False
+    #: set when a Newton iteration of the current step factorised a Jacobian (shifted or not)
+    factorised: bool = False
 
     def load_rate(self, set_load: Any, s: float, step: float = 1.0) -> Any:
         """-dR/ds on the unknowns (a new vector), ``set_load(v)`` setting the loads at path parameter v.
@@ -86,6 +89,46 @@ class Linearised:
         ksp.solve(b, x)
         self.timings.linear_solve += time.perf_counter() - t0
         return ksp.getConvergedReason() >= 0 and bool(np.all(np.isfinite(x.getArray(readonly=True))))
+
+    def _chord(self) -> bool:
+        """One chord step of a Coulomb bound's fixed point: x -= A_k^{-1} R(x), A_k the last factorisation (collective).
+
+        After the bound moved, the state is corrected without a new Jacobian (the frozen-bound Jacobian barely
+        depends on the bound); the fixed point's last solve is a full Newton solve. False (the state left as
+        it was) where no solve of this step has factorised yet, or the step leaves the admissible domain.
+        """
+        if not self.factorised:
+            return False
+        t0 = time.perf_counter()
+        rhs, dx = self._work, self.x.duplicate()
+        try:
+            self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
+            self.reduction.expand(self.x)
+            self._assemble_full_residual()
+            self.reduction.T.multTranspose(self.b_full, rhs)
+            t1 = time.perf_counter()
+            self.timings.assembly += t1 - t0
+            self.snes.getKSP().solve(rhs, dx)
+            self.timings.linear_solve += time.perf_counter() - t1
+            self.x.axpy(-1.0, dx)
+            self.reduction.expand(self.x)
+            ok = bool(np.all(np.isfinite(self.physics.state.x.array))) and self.guard.admissible()
+            ok = bool(self.physics.comm.allreduce(ok, op=MPI.LAND))
+            if not ok:
+                self.x.axpy(1.0, dx)
+                self.reduction.expand(self.x)
+            return ok
+        finally:
+            dx.destroy()
+            self.timings.newton_total += time.perf_counter() - t0
+
+    def linear_failure(self) -> bool:
+        """True when the last linear solve failed (e.g. a factorisation that ran out of memory)."""
+        return self.snes.getKSP().getConvergedReason() < 0
+
+    def residual_norm(self) -> float:
+        """The norm of the reduced residual at the end of the last solve (N)."""
+        return self.snes.getFunctionNorm()
 
     def round_off_floor(self, x: Any) -> float:
         """Eps * ||A diag|x| ||_F: how much rounding each unknown by one ulp changes the residual (N).

@@ -50,7 +50,8 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from suture_fem.physics.effects.friction import full_residual, nodal_terms, settle, slip_laws
+from suture_fem.physics.effects.fixed_point import settle
+from suture_fem.physics.effects.friction import full_residual, nodal_terms, slip_laws
 from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.schema import SolverSection
 from suture_fem.solve import inertia, jacobian, linear
@@ -175,6 +176,7 @@ class NewtonSolver(Linearised):
             self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
             self.A.setOption(PETSc.Mat.Option.SYMMETRY_ETERNAL, True)
         self.stol = float(base["snes_stol"])  # the increment test in force (a scene may set its own)
+        self.plain_atol: float | None = None  # SNES's absolute test but a fixed point's looser one (None: SNES's)
         self.atol = float(base["snes_atol"])  # the absolute residual test asked for (N)
         for key, value in base.items():
             opts[self.prefix + key] = value
@@ -276,7 +278,8 @@ class NewtonSolver(Linearised):
         self.timings.assembly += time.perf_counter() - t0
         if snes.getIterationNumber() == 0:  # the state this solve starts from: set its round-off floor
             self.floor = self.round_off_floor(x)
-            snes.setTolerances(atol=self.absolute_tolerance())
+            self.plain_atol = self.absolute_tolerance()
+            snes.setTolerances(atol=max(self.plain_atol, self.stops.loose))
 
     def absolute_tolerance(self) -> float:
         """The residual test (N): ``snes_atol``, at most BALANCE_TOL x the applied force, at least the floor."""
@@ -286,6 +289,7 @@ class NewtonSolver(Linearised):
         """SNES's Jacobian: :meth:`_jacobian`, then (MUMPS LDL^T) shifted while it has negative pivots."""
         signals.check(self.physics.comm)
         self._jacobian(snes, x, A, P)
+        self.factorised = True  # A is factorised before the linear solve (by SNES, or shifted below)
         pc = snes.getKSP().getPC()
         if not (self.options.inertia_correction and pc.getType() == "cholesky" and self.linear_solver == "mumps"):
             return
@@ -303,18 +307,22 @@ class NewtonSolver(Linearised):
         summed over its solves).
         """
         self.outside_domain = self.inertia_shifts = 0
+        self.factorised = False  # no factorisation of this step's yet (the chord steps need one)
         if not self.laws:
             return self._solve_once()
-        return settle(self.laws, self._solve_once, self.absolute_tolerance)
+        return settle(self.laws, self._solve_once, self.absolute_tolerance, self._chord)
 
-    def _solve_once(self) -> tuple[bool, int, str]:
-        """One SNES solve from the current state (see :meth:`solve`)."""
+    def _solve_once(self, loose: float = 0.0) -> tuple[bool, int, str]:
+        """One SNES solve from the current state (see :meth:`solve`), stopped at |R| <= ``loose`` (N) if above atol."""
+        self.stops.loose = loose
         self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
         self.jacobian_current = False
         self.last_violation = None
         t0 = time.perf_counter()
         a0 = self.timings.assembly + self.timings.guard
-        self.snes.setTolerances(atol=min(self.snes.getTolerances()[1], BALANCE_TOL * force_scale(self.physics)))
+        plain = self.snes.getTolerances()[1] if self.plain_atol is None else self.plain_atol
+        self.plain_atol = min(plain, BALANCE_TOL * force_scale(self.physics))
+        self.snes.setTolerances(atol=max(self.plain_atol, loose))
         try:
             with self.memo.open():  # the guard, potential and residual once per iterate (memo.py)
                 self.snes.solve(None, self.x)
@@ -370,14 +378,6 @@ class NewtonSolver(Linearised):
             return self._work.norm()
         finally:
             self.timings.assembly += time.perf_counter() - t0
-
-    def linear_failure(self) -> bool:
-        """True when the last linear solve failed (e.g. a factorisation that ran out of memory)."""
-        return self.snes.getKSP().getConvergedReason() < 0
-
-    def residual_norm(self) -> float:
-        """The norm of the reduced residual at the end of the last solve (N)."""
-        return self.snes.getFunctionNorm()
 
     def destroy(self) -> None:
         """Free SNES, its options and every PETSc object of this solver."""

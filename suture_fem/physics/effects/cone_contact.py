@@ -61,7 +61,8 @@ from suture_fem.geometry import regions
 from suture_fem.geometry.outline import project
 from suture_fem.physics.effects.cone_pairs import cone_pairs
 from suture_fem.physics.effects.contact import penalty_stiffness
-from suture_fem.physics.effects.friction import Aitken, SlipBound
+from suture_fem.physics.effects.fixed_point import Aitken
+from suture_fem.physics.effects.friction import SlipBound
 from suture_fem.physics.effects.pattern import ConeLayout, widen
 from suture_fem.support import compat
 

@@ -15,7 +15,9 @@ The bound b is held fixed during a Newton solve (Tresca friction: the terms are 
 w b s ln cosh(g / s), so the Jacobian stays symmetric and the line search's energy objective stays
 exact), and moved to mu p between solves until it settles: a fixed point on the contact pressure
 (Panagiotopoulos's process; Wriggers, Computational Contact Mechanics, 2006, section 10.5), relaxed by
-Aitken's factor (:meth:`ThreadFriction.update_bound`). A step is converged when the friction forces
+Aitken's factor (:meth:`ThreadFriction.update_bound`); between its updates the state follows by chord steps
+with the last factorisation, and a last full Newton solve gives the answer
+(:func:`~suture_fem.physics.effects.fixed_point.settle`). A step is converged when the friction forces
 differ from Coulomb's by less than the solver's absolute tolerance (:mod:`suture_fem.solve.newton`).
 Coupling the bound to the pressure inside Newton (the non-symmetric Coulomb tangent) was tried first:
 a track node at the open/closed kink with a large slip switches its friction force on and off between
@@ -39,7 +41,6 @@ sparsity is extended once by the pairs' couplings.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
 from typing import Any
 
 import dolfinx
@@ -53,17 +54,12 @@ from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs
+from suture_fem.physics.effects.fixed_point import Aitken
 from suture_fem.physics.effects.pattern import widen
 from suture_fem.physics.forms import measures
 from suture_fem.physics.residual_memo import ResidualMemo
 from suture_fem.support import compat
 
-#: Newton solves at most per load step (the slip bound's fixed point), and the reason a step fails with
-#: when the bound has not settled by then.
-FIXED_POINT_SOLVES = 30
-NOT_SETTLED = "friction_bound_not_settled"
-#: Aitken's relaxation factor is kept in this range (a factor above 1 extrapolates).
-OMEGA_MIN, OMEGA_MAX = 0.01, 2.0
 #: Reference positions closer than this (m) are the same node of a split track (duplicated coordinates).
 MATCH_TOLERANCE_M = 1e-12
 
@@ -79,6 +75,8 @@ class SlipBound:
     mu: float
     weight: np.ndarray
     bound: np.ndarray
+    #: :meth:`residual` before the last :meth:`update_bound` (N)
+    last_residual: float = math.inf
 
     def pressure(self) -> np.ndarray:
         """The contact pressure at each pair now (Pa)."""
@@ -124,31 +122,8 @@ class SlipBound:
         norm = math.sqrt(self.comm.allreduce(float(np.sum(r * r))))
         omega = self._aitken.factor(r)
         self.bound = np.maximum(self.bound + omega * r / np.maximum(self.weight, 1e-300), 0.0)
+        self.last_residual = norm
         return norm
-
-
-class Aitken:
-    """Aitken's relaxation factor of a fixed-point iteration x <- x + omega r (Irons and Tuck 1969).
-
-    omega_k = -omega_{k-1} r_{k-1} . (r_k - r_{k-1}) / |r_k - r_{k-1}|^2, kept in [OMEGA_MIN, ``largest``];
-    the first update is plain (omega = 1).
-    """
-
-    def __init__(self, comm: Any, largest: float = OMEGA_MAX):
-        """``comm``: the residuals' communicator (each rank holds its part)."""
-        self.comm, self.largest = comm, largest
-        self._last: np.ndarray | None = None
-        self._omega = 1.0
-
-    def factor(self, r: np.ndarray) -> float:
-        """The factor for this update's residual ``r`` (this rank's part; collective)."""
-        if self._last is not None and len(self._last) == len(r):
-            dr = r - self._last
-            num, den = self.comm.allreduce(np.array([float(np.sum(self._last * dr)), float(np.sum(dr * dr))]))
-            if den > 0.0:
-                self._omega = float(np.clip(-self._omega * num / den, OMEGA_MIN, self.largest))
-        self._last = r
-        return self._omega
 
 
 class ThreadFriction(SlipBound):
@@ -372,27 +347,3 @@ def _pairs(physics: Any, track: np.ndarray, thread: np.ndarray, weight: np.ndarr
         raise ValueError(f"{missing} track nodes face no thread node (the track is not split off the thread)")
     dofs = np.stack([global_dofs(physics, track, 1), partner], axis=1)
     return dofs, weight[track]
-
-
-def settle(laws: Sequence[SlipBound], solve_once: Callable[[], tuple[bool, int, str]],
-           tolerance: Callable[[], float]) -> tuple[bool, int, str]:
-    """Newton solves, each law updated after each (:meth:`SlipBound.update`), until every law holds.
-
-    A Coulomb bound is moved toward mu p until Coulomb's law holds to ``tolerance()`` (N); an augmented
-    Lagrangian's multipliers toward the pressure until the penetration is below its target.
-
-    ``solve_once()`` is one Newton solve from the current state (converged, iterations, reason). Returns
-    the last solve's (converged, reason) with the iterations summed; bounds that have not settled after
-    :data:`FIXED_POINT_SOLVES` solves fail the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
-    """
-    converged, its, reason = solve_once()
-    for law in laws:
-        law.start()
-    for _ in range(FIXED_POINT_SOLVES):
-        if not converged:
-            return converged, its, reason
-        if all([law.update(tolerance()) for law in laws]):  # every law updated, then judged
-            return converged, its, reason
-        converged, more, reason = solve_once()
-        its += more
-    return False, its, NOT_SETTLED

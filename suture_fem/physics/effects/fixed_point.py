@@ -1,0 +1,107 @@
+"""The fixed point of the slip bounds and multipliers updated between Newton solves (:func:`settle`).
+
+Coulomb's slip bound (:class:`~suture_fem.physics.effects.friction.SlipBound`: the thread's and the cones')
+is frozen during a Newton solve, so the Jacobian stays symmetric and the line search's energy exact, and
+moved toward mu p between solves; an augmented Lagrangian's multipliers toward the pressure. Each update
+of the bound shrinks the law's residual by a factor of about 0.04-0.07 on the paper scene (mu 0.1), so a
+step needs five or six updates from the first solve's 1e-4 N to the solver's 1e-10 N. Those updates are
+cheap where the state follows them by chord steps (the last factorisation, one residual, one
+back-substitution: the bound's change barely moves the Jacobian) instead of Newton solves of their own,
+and the first solve need not be exact either (it stops at :data:`FORCING` of the law's residual); a last
+full Newton solve, after which every law holds, gives the answer, as before (docs/contact.md, "A cheaper
+Coulomb").
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+log = logging.getLogger("suture_fem")
+
+#: Newton solves at most per load step (the slip bound's fixed point), and the reason a step fails with
+#: when the bound has not settled by then.
+FIXED_POINT_SOLVES = 30
+NOT_SETTLED = "friction_bound_not_settled"
+#: A fixed point's first solve stops at this fraction of the friction law's residual at its start (N; an inexact
+#: solve in the sense of Eisenstat and Walker's forcing terms): the chord steps and the last solve finish it.
+FORCING = 0.1
+#: A chord step (the last factorisation, a residual, a back-substitution) follows an update of the bound that
+#: shrank the law's residual by this factor at least; after any other update a full Newton solve, as without them.
+CHORD_CONTRACTION = 0.5
+#: Aitken's relaxation factor is kept in this range (a factor above 1 extrapolates).
+OMEGA_MIN, OMEGA_MAX = 0.01, 2.0
+
+
+class Aitken:
+    """Aitken's relaxation factor of a fixed-point iteration x <- x + omega r (Irons and Tuck 1969).
+
+    omega_k = -omega_{k-1} r_{k-1} . (r_k - r_{k-1}) / |r_k - r_{k-1}|^2, kept in [OMEGA_MIN, ``largest``];
+    the first update is plain (omega = 1).
+    """
+
+    def __init__(self, comm: Any, largest: float = OMEGA_MAX):
+        """``comm``: the residuals' communicator (each rank holds its part)."""
+        self.comm, self.largest = comm, largest
+        self._last: np.ndarray | None = None
+        self._omega = 1.0
+
+    def factor(self, r: np.ndarray) -> float:
+        """The factor for this update's residual ``r`` (this rank's part; collective)."""
+        if self._last is not None and len(self._last) == len(r):
+            dr = r - self._last
+            num, den = self.comm.allreduce(np.array([float(np.sum(self._last * dr)), float(np.sum(dr * dr))]))
+            if den > 0.0:
+                self._omega = float(np.clip(-self._omega * num / den, OMEGA_MIN, self.largest))
+        self._last = r
+        return self._omega
+
+
+def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, str]],
+           tolerance: Callable[[], float], chord: Callable[[], bool] | None = None) -> tuple[bool, int, str]:
+    """Newton solves, each law updated after each (``law.update(tolerance)``), until every law holds.
+
+    A Coulomb bound is moved toward mu p until Coulomb's law holds to ``tolerance()`` (N); an augmented
+    Lagrangian's multipliers toward the pressure until the penetration is below its target.
+
+    ``solve_once(loose)`` is one Newton solve from the current state (converged, iterations, reason), stopped
+    at a residual below ``loose`` (N) where that is above its own tolerance. With a Coulomb bound the first
+    solve stops at :data:`FORCING` times the law's residual at its start, and between updates the state is
+    moved by ``chord()`` (one step with the last factorisation; False: none taken) while each update shrinks
+    the law's residual by :data:`CHORD_CONTRACTION` at least (:func:`_chord_on`); the answer is always that of
+    a last solve to the full tolerance after which the laws held. Returns the last solve's (converged, reason)
+    with the Newton iterations summed; bounds that have not settled after :data:`FIXED_POINT_SOLVES` solves
+    (and as many chord steps) fail the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
+    """
+    coulomb = [law for law in laws if law.mu > 0.0]
+    loose = FORCING * max(law.residual() for law in coulomb) if coulomb and chord is not None else 0.0
+    converged, its, reason = solve_once(loose)
+    for law in laws:
+        law.start()
+    solves, chords, solved, last = 1, 0, True, math.inf
+    while solves <= FIXED_POINT_SOLVES:
+        if not converged:
+            return converged, its, reason
+        held = all([law.update(tolerance()) for law in laws])  # every law updated, then judged
+        now = max((law.last_residual for law in coulomb), default=math.inf)
+        log.debug("fixed point: %d solves (%d Newton its), %d chord steps; law residual %.2e N (tolerance %.2e N)",
+                  solves, its, chords, now, tolerance())
+        if held and solved and loose == 0.0:
+            return converged, its, reason
+        take, last = _chord_on(chord, held, now, last, chords), now
+        if take and chord():  # type: ignore[misc]
+            chords, solved = chords + 1, False
+            continue
+        loose = 0.0
+        converged, more, reason = solve_once(loose)
+        its, solves, solved = its + more, solves + 1, True
+    return False, its, NOT_SETTLED
+
+
+def _chord_on(chord: Callable[[], bool] | None, held: bool, now: float, last: float, chords: int) -> bool:
+    """Whether the next correction is a chord step: not yet settled, the law's residual shrinking fast enough."""
+    return chord is not None and not held and now < CHORD_CONTRACTION * last and chords < FIXED_POINT_SOLVES

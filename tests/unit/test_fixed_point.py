@@ -1,0 +1,94 @@
+"""The slip bound's fixed point (physics/effects/fixed_point.py): chord steps between updates, a last full solve.
+
+A scalar model with no forms: the state x solves k x = f - b (the bound b a force against the pull), the
+"pressure" is c x, and Coulomb's law asks b = mu c x. A full solve sets x exactly (or to a loose tolerance);
+a chord step moves x by one step with a stale stiffness.
+"""
+
+import math
+
+import numpy as np
+
+from suture_fem.physics.effects import fixed_point
+from suture_fem.physics.effects.fixed_point import settle
+
+K, F, C, MU, TOL = 2.0, 1.0, 0.8, 0.3, 1e-12
+
+
+class Comm:
+    def allreduce(self, value, op=None):
+        return value
+
+
+class Model:
+    """The state, its solves (full, loose, chord) counted, and one Coulomb law on it."""
+
+    def __init__(self):
+        self.x, self.solves, self.chords, self.looser = 0.0, 0, 0, []
+
+    def residual(self):
+        return K * self.x - (F - self.law.bound[0])
+
+    def solve_once(self, loose=0.0):
+        self.solves += 1
+        self.looser.append(loose)
+        target = (F - self.law.bound[0]) / K
+        self.x = target + (0.5 * loose / K if loose else 0.0)  # a loose solve stops short, within its test
+        return True, 3, "CONVERGED_FNORM_ABS"
+
+    def chord(self):
+        self.chords += 1
+        self.x -= self.residual() / (1.1 * K)  # a stale stiffness
+        return True
+
+
+class Law:
+    """A Coulomb law's part of SlipBound (the same update: Aitken-relaxed, residual before it)."""
+
+    def __init__(self, model):
+        self.comm, self.mu, self.model = Comm(), MU, model
+        self.weight, self.bound = np.array([1.0]), np.array([0.0])
+        self.last_residual = math.inf
+
+    def start(self):
+        self._aitken = fixed_point.Aitken(self.comm)
+
+    def pressure(self):
+        return np.array([C * self.model.x])
+
+    def residual(self):
+        return float(abs(self.mu * self.pressure()[0] - self.bound[0]))
+
+    def update(self, tolerance):
+        r = self.weight * (self.mu * self.pressure() - self.bound)
+        self.last_residual = float(np.linalg.norm(r))
+        self.bound = np.maximum(self.bound + self._aitken.factor(r) * r / self.weight, 0.0)
+        return self.last_residual <= tolerance
+
+
+def _run(chord):
+    model = Model()
+    model.law = law = Law(model)
+    law.bound[:] = 0.05  # a previous step's bound
+    ok, its, reason = settle([law], model.solve_once, lambda: TOL, model.chord if chord else None)
+    return model, law, ok, its
+
+
+def test_chord_steps_replace_the_full_solves_and_a_full_solve_ends_the_fixed_point():
+    plain, _, ok_plain, its_plain = _run(chord=False)
+    fast, law, ok, its = _run(chord=True)
+    assert ok and ok_plain
+    exact = MU * C * F / (K + MU * C)  # b = mu c (f - b) / k
+    # both end on Coulomb's law to the tolerance (the bound updated once more after the last check)
+    assert abs(plain.law.bound[0] - exact) < 1e-11 and abs(law.bound[0] - exact) < 1e-11
+    assert fast.chords >= 2 and fast.solves < plain.solves and its < its_plain
+    assert fast.looser[0] > 0.0 and fast.looser[-1] == 0.0  # a loose first solve, a full last one
+    assert plain.looser == [0.0] * plain.solves  # without chord steps every solve is full, as before
+
+
+def test_a_fixed_point_that_does_not_settle_fails_the_step_after_its_solves():
+    model = Model()
+    model.law = law = Law(model)
+    law.update = lambda tolerance: False  # never holds
+    ok, _, reason = settle([law], model.solve_once, lambda: TOL, None)
+    assert not ok and reason == fixed_point.NOT_SETTLED and model.solves == fixed_point.FIXED_POINT_SOLVES + 1

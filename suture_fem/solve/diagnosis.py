@@ -9,6 +9,8 @@ with which value; it is logged at every cutback and becomes ``diagnosis.detail``
 
 from __future__ import annotations
 
+from typing import Any
+
 from suture_fem.physics.materials import Limit
 from suture_fem.physics.problem import Physics
 from suture_fem.solve.newton import NewtonSolver
@@ -55,27 +57,45 @@ def advice(physics: Physics, cause: StopCause) -> str:
     """What to change, for a stop the plain displacement formulation causes ('' when there is no advice).
 
     A nearly incompressible tissue locks the displacement element: Newton diverges or elements invert
-    under a load the mixed formulation carries (docs/hardcases.md: K x10-x1000 at P2).
+    under a load the mixed formulation carries (docs/hardcases.md: K x10-x1000 at P2). The contact stops
+    get what carries them further, where that is known (docs/contact.md).
     """
     effects = getattr(physics, "effects", None)
-    stuck = cause in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT)
-    if effects is not None and effects.cone_contact and stuck and getattr(physics, "degree", 1) == 2:
-        return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
-                "cone reaches about 1 N, four stop in their first step (docs/contact.md: P2 cones)")
-    if effects is not None and effects.unilateral_thread and cause in (StopCause.NEWTON_DIVERGENCE,
-                                                                      StopCause.INVERTED_ELEMENT):
-        if effects.frictional_thread:
-            return ('; a Coulomb thread reaches 4 N at P2 under force control (paper scene, mu 0.1, 1 and 4 cones; '
-                    'mu 0.3, 1 cone), and with loading.control = "displacement" at P1 (4 cones, 4.1 N) and P2 (1 cone, '
-                    '8 mm)')
-        if effects.mixed:
-            return ("; the tissue opens off a frictionless thread just ahead of a cone's apex and that corner "
-                    "distorts; the mixed formulation stops there (paper scene, P2: 0.82 N), "
-                    'effects.incompressibility = "displacement" reaches 4 N at P1 and P2 (docs/contact.md)')
-        return ("; the tissue opens off a frictionless thread just ahead of a cone's apex, where it stays tied to the "
-                "cone, and that corner distorts (CONTACT.md: CalculiX stops there too; docs/contact.md): the paper "
-                'scene reaches 4 N under force control at P1 and P2, or use effects.thread_interface = "sliding"')
-    if effects is None or effects.mixed or cause not in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT):
+    if effects is None or cause not in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT):
+        return ""
+    degree = getattr(physics, "degree", 1)
+    text = _cone_advice(effects, degree) if effects.cone_contact else ""
+    if text:
+        return text
+    if effects.unilateral_thread:
+        return _thread_advice(effects)
+    if effects.mixed:
         return ""
     return ('; if the tissue is nearly incompressible, set effects.incompressibility = "mixed" (Taylor-Hood '
-            'displacement-pressure, free of locking), or use mesh.degree = 1')
+            'displacement-pressure, free of locking)' + (", or use mesh.degree = 1" if degree != 1 else ""))
+
+
+def _cone_advice(effects: Any, degree: int) -> str:
+    if degree == 2:
+        return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
+                "cone reaches about 1 N, four stop in their first step (docs/contact.md: P2 cones)")
+    if effects.cone_interface == "sliding":
+        return ""
+    return ("; unilateral cones stall where the tissue releases from them (a few nodes swapping between open and "
+            "pressed; which state a ramp reaches is path-picked, docs/contact.md: Two equilibria): the paper scene "
+            '(4 cones, P1, force control, the default steps) reaches 4 N; effects.cone_interface = "sliding" does '
+            "not release")
+
+
+def _thread_advice(effects: Any) -> str:
+    if effects.frictional_thread:
+        return ('; a Coulomb thread reaches 4 N at P2 under force control (paper scene, mu 0.1, 1 and 4 cones; '
+                'mu 0.3, 1 cone), and with loading.control = "displacement" at P1 (4 cones, 4.1 N) and P2 (1 cone, '
+                '8 mm)')
+    if effects.mixed:
+        return ("; the tissue opens off a frictionless thread just ahead of a cone's apex and that corner "
+                "distorts; the mixed formulation stops there (paper scene, P2: 0.82 N), "
+                'effects.incompressibility = "displacement" reaches 4 N at P1 and P2 (docs/contact.md)')
+    return ("; the tissue opens off a frictionless thread just ahead of a cone's apex, where it stays tied to the "
+            "cone, and that corner distorts (CONTACT.md: CalculiX stops there too; docs/contact.md): the paper "
+            'scene reaches 4 N under force control at P1 and P2, or use effects.thread_interface = "sliding"')

@@ -23,3 +23,13 @@ def test_a_frictionless_thread_in_the_mixed_formulation_is_pointed_to_the_displa
 def test_no_contact_advice_for_a_stop_it_does_not_explain():
     assert advice(physics(mixed=True), StopCause.GENT_LIMIT) == ""
     assert "mesh.degree = 1" in advice(physics(cones=True), StopCause.NEWTON_DIVERGENCE)
+
+
+def test_unilateral_cones_at_p1_get_the_release_advice_not_the_degree_they_already_have():
+    p1 = physics(degree=1, thread=False, cones=True)
+    p1.effects.cone_interface = "frictionless"
+    text = advice(p1, StopCause.NEWTON_DIVERGENCE)
+    assert "release" in text and "mesh.degree = 1" not in text and "incompressibility" not in text
+    tied = physics(degree=1, thread=False)
+    assert "mesh.degree" not in advice(tied, StopCause.INVERTED_ELEMENT)
+    assert "or use mesh.degree = 1" in advice(physics(degree=2, thread=False), StopCause.INVERTED_ELEMENT)

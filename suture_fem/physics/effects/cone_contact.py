@@ -59,8 +59,7 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import regions
 from suture_fem.geometry.outline import project
-from suture_fem.physics.effects.cone_edges import EdgeSamples, contact_edges
-from suture_fem.physics.effects.cone_pairs import _cone_of, cone_pairs
+from suture_fem.physics.effects.cone_pairs import cone_pairs
 from suture_fem.physics.effects.contact import penalty_stiffness
 from suture_fem.physics.effects.fixed_point import Aitken
 from suture_fem.physics.effects.friction import SlipBound
@@ -120,7 +119,6 @@ class ConeContact(SlipBound):
         index = PETSc.IS().createGeneral(index_all, comm=PETSc.COMM_SELF)
         self._scatter = PETSc.Scatter().create(state, index, self._local, None)
         index.destroy()
-        self.edges: EdgeSamples | None = None  # P2 unilateral cones: points between the edges' nodes (cone_edges.py)
 
     @classmethod
     def on(cls, physics: Any, scene: Any) -> ConeContact:
@@ -136,11 +134,6 @@ class ConeContact(SlipBound):
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
                       target, convexified=getattr(physics, "degree", 1) != 1)
-        if contact.convexified and getattr(physics, "degree", 1) == 2:
-            tagged = physics.tagged
-            edges = contact_edges(physics, lambda xy: _cone_of(xy, tagged.geometry.cones, tagged.geometry.z_end))
-            contact.edges = EdgeSamples(compat.function_vector(physics.state), edges, contact.outlines,
-                                        contact.cone_dofs, contact.kappa, contact.convexified)
         physics.notes.setdefault("interfaces", {}).update(contact.notes())
         return contact
 
@@ -237,8 +230,7 @@ class ConeContact(SlipBound):
         if self.mu > 0.0:
             x = np.abs(found["g"]) / self.slip
             value = value + self.weight * self.bound * self.slip * (x + np.log1p(np.exp(-2.0 * x)) - math.log(2.0))
-        extra = self.edges.potential(u_vec, found["t_c"]) if self.edges is not None else 0.0
-        return float(self.comm.allreduce(float(np.sum(value)) + extra))
+        return float(self.comm.allreduce(float(np.sum(value))))
 
     def _gradient_hessian(self, u_vec: Any) -> tuple[np.ndarray, np.ndarray]:
         """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2; the friction's turning tangent left out).
@@ -276,15 +268,11 @@ class ConeContact(SlipBound):
                 values.append(np.full(len(dofs), -float(np.sum(grad[self.cone == c, 1])) / len(dofs)))
         b.setValues(np.concatenate(rows).astype(PETSc.IntType), np.concatenate(values),
                     addv=PETSc.InsertMode.ADD_VALUES)
-        if self.edges is not None:
-            self.edges.add_residual(u_vec, self.search(u_vec)["t_c"], b)
         b.assemble()
 
     def add_jacobian(self, u_vec: Any, A: Any) -> None:
         """Add the terms' Hessian (symmetric) to the full Jacobian ``A`` (assembled; collective)."""
         _, hess = self._gradient_hessian(u_vec)
-        if self.edges is not None:
-            self.edges.add_jacobian(u_vec, self.search(u_vec)["t_c"], A)
         self._add_blocks(A, hess)
 
     def _add_blocks(self, A: Any, hess: np.ndarray) -> None:
@@ -328,8 +316,6 @@ class ConeContact(SlipBound):
             out["contact_penetration_target_mm"] = self.target / regions.MM
         if self.convexified:
             out["cone_contact_jacobian"] = "convexified: the distance's softening curvature left out (P2)"
-        if self.edges is not None:
-            out["cone_contact_edge_samples"] = int(self.comm.allreduce(self.edges.weight.size))
         if self.model == "coulomb":
             out.update({"cone_friction_coefficient": self.mu, "friction_slip_mm": self.slip / regions.MM})
         return out
@@ -338,8 +324,6 @@ class ConeContact(SlipBound):
         """Free the scatter and its local vector."""
         self._scatter.destroy()
         self._local.destroy()
-        if self.edges is not None:
-            self.edges.destroy()
 
 
 def augmented(section: Any) -> bool:

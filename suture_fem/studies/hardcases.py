@@ -95,10 +95,6 @@ def contact_cases() -> list[Case]:
     cones = _interface_cases("cones", "cone")
     cones.insert(5, Case("cones: sliding, 12 mm", 7, (*MOVED, "effects.cone_interface=\"sliding\"",
                                                       "loading.displacement_mm=12"), "a large pull, bilateral"))
-    cones.append(Case("cones and thread: coulomb, 6 mm", 7, (*MOVED, "effects.cone_interface=\"coulomb\"",
-                                                             "effects.thread_interface=\"coulomb\"",
-                                                             "loading.displacement_mm=6"),
-                      "nothing tied: the device's model"))
     return thread + cones
 
 

@@ -48,7 +48,7 @@ class Law:
     def __init__(self, model):
         self.comm, self.mu, self.model = Comm(), MU, model
         self.weight, self.bound = np.array([1.0]), np.array([0.0])
-        self.last_residual = math.inf
+        self.last_residual = self.last_change = math.inf
 
     def start(self):
         self._aitken = fixed_point.Aitken(self.comm)
@@ -62,14 +62,16 @@ class Law:
     def update(self, tolerance):
         r = self.weight * (self.mu * self.pressure() - self.bound)
         self.last_residual = float(np.linalg.norm(r))
+        old = self.bound
         self.bound = np.maximum(self.bound + self._aitken.factor(r) * r / self.weight, 0.0)
+        self.last_change = float(np.linalg.norm(self.bound - old) / np.linalg.norm(self.bound))
         return self.last_residual <= tolerance
 
 
-def _run(chord):
+def _run(chord, bound=0.09):
     model = Model()
     model.law = law = Law(model)
-    law.bound[:] = 0.05  # a previous step's bound
+    law.bound[:] = bound  # a previous step's bound, near this one's (0.107)
     ok, its, reason = settle([law], model.solve_once, lambda: TOL, model.chord if chord else None)
     return model, law, ok, its
 
@@ -84,6 +86,17 @@ def test_chord_steps_replace_the_full_solves_and_a_full_solve_ends_the_fixed_poi
     assert fast.chords >= 2 and fast.solves < plain.solves and its < its_plain
     assert fast.looser[0] > 0.0 and fast.looser[-1] == 0.0  # a loose first solve, a full last one
     assert plain.looser == [0.0] * plain.solves  # without chord steps every solve is full, as before
+
+
+def test_no_chord_step_after_an_update_that_moved_the_bound_by_more_than_half_of_it():
+    _, law, ok, _ = _run(chord=True, bound=0.0)  # from rest: the first update sets the whole bound
+    fast, _, _, _ = _run(chord=True)
+    assert ok and fast.chords >= 2
+    model = Model()
+    model.law = law = Law(model)
+    law.update = lambda tolerance: (setattr(law, "last_change", 1.0), setattr(law, "last_residual", 1.0), False)[2]
+    settle([law], model.solve_once, lambda: TOL, model.chord)
+    assert model.chords == 0 and model.solves == fixed_point.FIXED_POINT_SOLVES + 1
 
 
 def test_a_fixed_point_that_does_not_settle_fails_the_step_after_its_solves():

@@ -33,6 +33,10 @@ FORCING = 0.1
 #: A chord step (the last factorisation, a residual, a back-substitution) follows an update of the bound that
 #: shrank the law's residual by this factor at least; after any other update a full Newton solve, as without them.
 CHORD_CONTRACTION = 0.5
+#: A chord step only follows an update that moved the bound by at most this fraction of itself: the frozen-bound
+#: Jacobian it reuses is the old bound's (a stuck plug pressed on from rest, mu 300: the bound went from 0 to
+#: mu p, a chord step multiplied the law's residual by ten and the full solve after it did not converge).
+CHORD_BOUND_CHANGE = 0.5
 #: Aitken's relaxation factor is kept in this range (a factor above 1 extrapolates).
 OMEGA_MIN, OMEGA_MAX = 0.01, 2.0
 
@@ -92,7 +96,8 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
                   solves, its, chords, now, tolerance())
         if held and solved and loose == 0.0:
             return converged, its, reason
-        take, last = _chord_on(chord, held, now, last, chords), now
+        change = max((law.last_change for law in coulomb), default=math.inf)
+        take, last = _chord_on(chord, held, now, last, chords) and change <= CHORD_BOUND_CHANGE, now
         if take and chord():  # type: ignore[misc]
             chords, solved = chords + 1, False
             continue

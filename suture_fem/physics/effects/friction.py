@@ -77,6 +77,8 @@ class SlipBound:
     bound: np.ndarray
     #: :meth:`residual` before the last :meth:`update_bound` (N)
     last_residual: float = math.inf
+    #: the last update's change of the bound relative to the bound (2-norms of w b): 1 from a bound of 0
+    last_change: float = math.inf
 
     def pressure(self) -> np.ndarray:
         """The contact pressure at each pair now (Pa)."""
@@ -121,8 +123,12 @@ class SlipBound:
         r = self._gap_forces()
         norm = math.sqrt(self.comm.allreduce(float(np.sum(r * r))))
         omega = self._aitken.factor(r)
+        old = self.bound
         self.bound = np.maximum(self.bound + omega * r / np.maximum(self.weight, 1e-300), 0.0)
+        moved, size = self.comm.allreduce(np.array([float(np.sum((self.weight * (self.bound - old)) ** 2)),
+                                                    float(np.sum((self.weight * self.bound) ** 2))]))
         self.last_residual = norm
+        self.last_change = math.sqrt(moved / size) if size > 0.0 else (0.0 if moved == 0.0 else math.inf)
         return norm
 
 

@@ -6,50 +6,24 @@ Solves the paper ramp (P1 r0) once; then, for each scale, solves the same Model 
 ``materials.tissue_scale`` from the previous answer's states (``model.solve(start="previous")``: each report
 force's start state is the previous answer's) and a fresh Model from rest (what the command line computes),
 and prints a table: Newton iterations and CPU of both, and the largest relative difference of results.json's
-floats (the force-displacement curve and the solver's counts aside: a warm ramp steps straight to the report
-forces). docs/api.md, "A warm start for later answers"; benchmarks/many_answers.py ``--start previous`` puts
-it beside the command line.
+values (benchmarks/compare.py; the force-displacement curve, the solver's counts and the residuals aside: a
+warm ramp steps straight to the report forces). docs/api.md, "A warm start for later answers";
+benchmarks/many_answers.py ``--start previous`` puts it beside the command line.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import tempfile
 import time
 from pathlib import Path
 
-import suture_fem as sf
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from compare import NOT_COMPARED, WARM_NOT_COMPARED, compare  # noqa: E402
 
-#: results.json keys (any part of the path) not compared: timings, counts, the curve's points, the residuals.
-NOT_COMPARED = ("timings", "wall_time", "process", "newton_iterations", "load_steps", "steps", "cutbacks",
-                "residual_floor", "free_residual", "solves_at", "force_balance", "force_displacement",
-                "inertia_shifts", "domain_rejections", "line_search", "fallbacks", "linear_solver")
-
-
-def flat(x: object, pre: str = "") -> dict[str, float]:
-    """Every number of a JSON tree by its path."""
-    out: dict[str, float] = {}
-    if isinstance(x, dict):
-        for k, v in x.items():
-            out.update(flat(v, f"{pre}.{k}"))
-    elif isinstance(x, list):
-        for i, v in enumerate(x):
-            out.update(flat(v, f"{pre}[{i}]"))
-    elif isinstance(x, (int, float)) and not isinstance(x, bool):
-        out[pre] = float(x)
-    return out
-
-
-def differences(a: dict, b: dict) -> list[tuple[float, str]]:
-    """(relative difference, path) of the compared floats, largest first."""
-    fa, fb = flat(a), flat(b)
-    rows = []
-    for key in fa.keys() & fb.keys():
-        if not any(s in key for s in NOT_COMPARED):
-            d = abs(fa[key] - fb[key]) / abs(fb[key]) if fb[key] != 0 else abs(fa[key])
-            rows.append((d, key))
-    return sorted(rows, reverse=True)
+import suture_fem as sf  # noqa: E402
 
 
 def solve(model: sf.Model, out: Path, start: str) -> tuple[dict, float]:
@@ -75,13 +49,15 @@ def main() -> None:
             warm, warm_cpu = solve(model, Path(tmp) / f"warm_{scale}", "previous")
             fresh, fresh_cpu = solve(sf.Model(base.with_values({"materials.tissue_scale": scale})),
                                      Path(tmp) / f"fresh_{scale}", "rest")
-            diffs = differences(warm, fresh)
+            skip = NOT_COMPARED | WARM_NOT_COMPARED
+            found = compare(warm, fresh, skip)
             usum = max(abs(w["usum_mm"] / f["usum_mm"] - 1) for w, f in zip(warm["at_forces"], fresh["at_forces"]))
             rows.append({"scale": scale, "warm_newton": warm["newton_iterations"], "warm_cpu_s": warm_cpu,
                          "fresh_newton": fresh["newton_iterations"], "fresh_cpu_s": fresh_cpu,
-                         "compared": len(diffs), "above_1e-10": sum(d > 1e-10 for d, _ in diffs),
-                         "largest": diffs[0][0], "largest_at": diffs[0][1], "usum_largest": usum})
-    print("| scale | Newton its warm / fresh | CPU s warm / fresh | floats compared | above 1e-10 | largest (where) "
+                         "compared": found["compared"], "above_1e-10": found["above_1e-10"],
+                         "largest": found["difference"], "largest_at": found["difference_at"],
+                         "usum_largest": usum})
+    print("| scale | Newton its warm / fresh | CPU s warm / fresh | values compared | above 1e-10 | largest (where) "
           "| USUM largest |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for r in rows:

@@ -76,7 +76,8 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
     at a residual below ``loose`` (N) where that is above its own tolerance. With a Coulomb bound the first
     solve stops at :data:`FORCING` times the law's residual at its start, and between updates the state is
     moved by ``chord()`` (one step with the last factorisation; False: none taken) while each update shrinks
-    the law's residual by :data:`CHORD_CONTRACTION` at least (:func:`_chord_on`); the answer is always that of
+    the law's residual by :data:`CHORD_CONTRACTION` at least and moves the bound by at most
+    :data:`CHORD_BOUND_CHANGE` of itself (:func:`_chord_on`); the answer is always that of
     a last solve to the full tolerance after which the laws held. Returns the last solve's (converged, reason)
     with the Newton iterations summed; bounds that have not settled after :data:`FIXED_POINT_SOLVES` solves
     (and as many chord steps) fail the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
@@ -97,7 +98,7 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
         if held and solved and loose == 0.0:
             return converged, its, reason
         change = max((law.last_change for law in coulomb), default=math.inf)
-        take, last = _chord_on(chord, held, now, last, chords) and change <= CHORD_BOUND_CHANGE, now
+        take, last = _chord_on(chord, held, now, last, change, chords), now
         if take and chord():  # type: ignore[misc]
             chords, solved = chords + 1, False
             continue
@@ -107,6 +108,12 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
     return False, its, NOT_SETTLED
 
 
-def _chord_on(chord: Callable[[], bool] | None, held: bool, now: float, last: float, chords: int) -> bool:
-    """Whether the next correction is a chord step: not yet settled, the law's residual shrinking fast enough."""
-    return chord is not None and not held and now < CHORD_CONTRACTION * last and chords < FIXED_POINT_SOLVES
+def _chord_on(chord: Callable[[], bool] | None, held: bool, now: float, last: float, change: float,
+              chords: int) -> bool:
+    """Whether the next correction is a chord step.
+
+    Not yet settled, the law's residual shrinking fast enough, the bound moved little enough for the last
+    factorisation (of the bound before the update) to serve.
+    """
+    return (chord is not None and not held and now < CHORD_CONTRACTION * last and change <= CHORD_BOUND_CHANGE
+            and chords < FIXED_POINT_SOLVES)

@@ -121,15 +121,15 @@ class SlipBound:
         makes it diverge.
         """
         r = self._gap_forces()
-        norm = math.sqrt(self.comm.allreduce(float(np.sum(r * r))))
         omega = self._aitken.factor(r)
         old = self.bound
         self.bound = np.maximum(self.bound + omega * r / np.maximum(self.weight, 1e-300), 0.0)
-        moved, size = self.comm.allreduce(np.array([float(np.sum((self.weight * (self.bound - old)) ** 2)),
-                                                    float(np.sum((self.weight * self.bound) ** 2))]))
-        self.last_residual = norm
+        squares, moved, size = self.comm.allreduce(np.array([
+            float(np.sum(r * r)), float(np.sum((self.weight * (self.bound - old)) ** 2)),
+            float(np.sum((self.weight * self.bound) ** 2))]))
+        self.last_residual = math.sqrt(squares)
         self.last_change = math.sqrt(moved / size) if size > 0.0 else (0.0 if moved == 0.0 else math.inf)
-        return norm
+        return self.last_residual
 
 
 class ThreadFriction(SlipBound):

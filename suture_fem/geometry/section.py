@@ -45,14 +45,20 @@ class Cone:
     points: list[Point] = field(default_factory=list)
     radii: dict[int, float] = field(default_factory=dict)
 
-    def rounded(self, radius: float, r_thread: float) -> list[Segment]:
+    def rounded(self, radius: float, r_thread: float, to_axis: bool = False) -> list[Segment]:
         """The outline with every sharp convex corner off the thread rounded by ``radius`` (the fillets kept).
 
         The contact search's outline: a convex corner's outward normal jumps, so a node pressed into it
         would have two equilibria; a rounded one turns the normal continuously. A re-entrant corner stays
         sharp (rounding it would put cone inside the tissue's nodes there).
+
+        ``to_axis``: the cone's side on the thread moved to the axis (its points at r = r_thread to r = 0): the
+        cone and the thread inside it as one body, for the search of the track's tissue (which lies on
+        r = r_thread, so the cone's own side there would let it pass with no gap at all).
         """
         pts = self.points
+        if to_axis:
+            pts = [(0.0 if abs(r - r_thread) <= 1e-9 else r, z) for r, z in pts]
         area = sum(p[0] * q[1] - q[0] * p[1] for p, q in zip(pts, pts[1:] + pts[:1]))
 
         def convex(i: int) -> bool:

@@ -24,7 +24,7 @@ def cone_nodes(physics: Any, nodes: np.ndarray) -> dict[str, np.ndarray]:
     """``cone_gap``, ``cone_slip`` (mm) at the interface output's owned ``nodes`` (0 off the pairs; collective)."""
     contact = physics.cone_contact
     profile = contact.profile(compat.function_vector(physics.state))
-    where = {int(n): k for k, n in enumerate(contact.nodes)}
+    where = {int(n): k for k, n in enumerate(contact.nodes) if contact.surface[k]}  # the cones' own surfaces
     index = np.array([where.get(int(n), -1) for n in nodes], dtype=np.int64)
     paired = index >= 0
     out = {}

@@ -11,6 +11,10 @@ the tissue's own nodes on a sliding thread's track. It is split by where the nod
   included), k = 1 the cone farthest from the pulled end;
 * ``thread``: every other interface node (the bare thread, inside a hollow cone's cavity included).
 
+With the cones and the thread both free (nothing tied), a cone also pushes the track's tissue ahead of it
+(:meth:`~suture_fem.physics.effects.cone_contact.ConeContact.track_push`): that push is the cone's share,
+moved from the thread's, so ``thread`` is what the thread itself passes (its friction).
+
 ``load_share_n`` gives each part's axial force (N); the parts sum to the pull to solver tolerance.
 
 Tractions: dividing a node's force by its 2 pi r-weighted lumped area (the facets' integral of its
@@ -129,6 +133,10 @@ class Interface(Quantity):
         fz = force[:, 1]
         shares = np.array([float(np.sum(fz[self.part == k])) for k in range(len(self.names))])
         shares = comm.allreduce(shares)
+        if physics.cone_contact is not None and physics.effects.thread_track:  # a cone's push on the track's tissue
+            push = physics.cone_contact.track_push(compat.function_vector(physics.state))
+            shares[: len(push)] += push
+            shares[-1] -= float(np.sum(push))
         u = physics.u.x.array.reshape(-1, 2)
         local = {
             "xy": self.xy_mm, "force": force, "area": area[self.nodes], "normal": normal[self.nodes],

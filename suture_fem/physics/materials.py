@@ -45,6 +45,9 @@ class Limit(Enum):
     J = "J"
     #: Jm - (I1bar - 3), Gent's distance to its locking limit
     GENT_MARGIN = "Gent limit Jm - (I1bar - 3)"
+    #: not a material's: how deep a tissue node may lie inside a cone, less how deep it lies (the contact's
+    #: search is only sound short of the cone's mid-wall; :meth:`ConeContact.deepest`)
+    CONE_DEPTH = "depth inside a cone"
 
     @property
     def label(self) -> str:

@@ -22,13 +22,16 @@ PHYSICAL_LIMIT = "physical_limit"
 INADMISSIBLE_START = "inadmissible_start"
 
 #: What a violated limit means, as the failure text says it.
-_VIOLATED = {Limit.J: "J <= 0", Limit.GENT_MARGIN: "Gent limit I1bar - 3 >= Jm"}
+_VIOLATED = {Limit.J: "J <= 0", Limit.GENT_MARGIN: "Gent limit I1bar - 3 >= Jm",
+             Limit.CONE_DEPTH: "a tissue node deeper inside a cone than the search allows (mm)"}
 
 
 def stop_cause(newton: NewtonSolver) -> StopCause:
     """The cause of the last failed solve: a violated limit first, then the linear solver, else divergence."""
     v = newton.last_violation
     if v is not None:
+        if v.quantity is Limit.CONE_DEPTH:  # trial states that kept going through a cone: Newton's failure
+            return StopCause.NEWTON_DIVERGENCE
         return StopCause.GENT_LIMIT if v.quantity is Limit.GENT_MARGIN else StopCause.INVERTED_ELEMENT
     if newton.linear_failure():
         return StopCause.LINEAR_SOLVER
@@ -76,6 +79,11 @@ def advice(physics: Physics, cause: StopCause) -> str:
 
 
 def _cone_advice(effects: Any, degree: int) -> str:
+    if effects.thread_track and effects.cone_interface != "sliding":
+        return ("; with nothing tied the cones alone hold the thread, and the paper's cones (apex toward the pull) "
+                "hold little (one cone at P1, the end moved 4 mm: 0.25 N with a sliding thread and Coulomb cones, "
+                'mu 0.3, against 0.94 N tied): follow the pull with loading.control = "displacement" '
+                "(docs/contact.md: Nothing tied)")
     if degree == 2:
         return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
                 "cone reaches about 1 N, four stop in their first step (docs/contact.md: P2 cones)")

@@ -74,13 +74,16 @@ class DomainGuard:
                 self.checks.append((region, limit, compat.expression(expr, points), region_cells))
         self.violation: Violation | None = None
         self.n_points = len(points)
+        self.contact: Any = None  # the cones' contact (its ``deepest``), checked after the materials' limits
 
     @classmethod
     def of(cls, physics: Physics) -> DomainGuard:
         """The guard of a scene's physics: every tagged region, except a rigid suture (which cannot invert)."""
         cells = [(region, meshmod.region_cells(physics.tagged, tag)) for tag, region in REGION_OF_TAG.items()
                  if not (tag in regions.SUTURE and physics.effects.rigid)]
-        return cls(physics.mesh, physics.x, physics.F, physics.degree, physics.materials, cells)
+        guard = cls(physics.mesh, physics.x, physics.F, physics.degree, physics.materials, cells)
+        guard.contact = getattr(physics, "cone_contact", None)
+        return guard
 
     def margins(self) -> dict[tuple[str, Limit], tuple[float, Any]]:
         """Smallest value of each limit on this rank (with its location), before any reduction."""
@@ -124,7 +127,17 @@ class DomainGuard:
             return -value if value <= 0.0 else None
 
         self.violation = self._worst(outside)
+        if self.violation is None and self.contact is not None:  # a tissue node gone through a cone's thin wall
+            self.violation = self._too_deep()
         return self.violation is None
+
+    def _too_deep(self) -> Violation | None:
+        """A tissue node deeper inside a cone than its search allows, the deepest (collective), else None."""
+        depth, limit, where, cone = self.contact.deepest()
+        if depth <= limit:
+            return None
+        return Violation(region=f"cone {cone + 1}", quantity=Limit.CONE_DEPTH, value=depth / regions.MM,
+                         badness=depth / limit, r_mm=float(where[0]), z_mm=float(where[1]))
 
     def limit_reached(self, fraction: float) -> Violation | None:
         """Where (I1bar - 3) / Jm >= fraction in a Gent region (collective), else None."""

@@ -46,6 +46,7 @@ from typing import Any
 
 from petsc4py import PETSc
 
+from suture_fem.physics.effects.friction import slip_laws
 from suture_fem.physics.problem import Physics
 from suture_fem.scene.balance import BALANCE_TOL
 from suture_fem.scene.model import Scene
@@ -134,12 +135,12 @@ class _Stepper:
         self.eps = 1e-12 * path.end
         self.u_vec = compat.function_vector(self.physics.state)
         self.last = self.u_vec.copy()  # the last converged state
+        self.kept = [(law, law.frozen()) for law in slip_laws(self.physics)]  # its laws' bounds and multipliers
         self.previous: Any = None  # state before `last`, for the predictor
         self.tangent: Any = None  # du/ds at `last`, when the path's loads are linear in s and it was had
         self.rate: Any = None  # -dR/ds on the unknowns, for the tangent
         self.s, self.prev_step, self.step = 0.0, 0.0, path.initial
-        self.retried = False  # this step already retried with the other line search
-        self.cuts_here = 0  # cutbacks in a row at the current load s
+        self.retried, self.cuts_here = False, 0  # this step retried with the other line search; cutbacks in a row at s
         self.leapt_from: float | None = None  # the load the last leap started from
         self.warm: Callable[[float], Any] | None = None  # start states at report forces (ramp's ``warm``)
         self.warm_tried: set[float] = set()  # targets whose warm start was tried
@@ -165,6 +166,8 @@ class _Stepper:
         finally:
             self._set_state(self.last)  # never leave a diverged state behind, nor the loads of a failed trial
             self.path.restore(self.s)
+            for law, kept in self.kept:  # nor the contact's multipliers and bounds of a failed trial
+                law.thaw(kept)
             for vec in (self.last, self.previous, self.tangent, self.rate):
                 if vec is not None:
                     vec.destroy()
@@ -286,6 +289,7 @@ class _Stepper:
         else:
             self.last.copy(self.previous)
         self.u_vec.copy(self.last)
+        self.kept = [(law, law.frozen()) for law, _ in self.kept]
         self.prev_step = trial - self.s
         s_old, self.s = self.s, trial
         s = self.s

@@ -88,14 +88,17 @@ MOVED = ("mesh.degree=1", "loading.control=\"displacement\"")
 
 
 def contact_cases() -> list[Case]:
-    """Group 7: the thread in its own track, then the cones' surfaces (the thread tied)."""
+    """Group 7: the thread in its own track, then the cones' surfaces (the thread tied), then nothing tied."""
     thread = _interface_cases("contact", "thread")
     thread.insert(5, Case("contact: frictionless, 12 mm", 7, (*MOVED, "effects.thread_interface=\"frictionless\"",
                                                               "loading.displacement_mm=12"), "a large pull"))
     cones = _interface_cases("cones", "cone")
     cones.insert(5, Case("cones: sliding, 12 mm", 7, (*MOVED, "effects.cone_interface=\"sliding\"",
                                                       "loading.displacement_mm=12"), "a large pull, bilateral"))
-    return thread + cones
+    free = Case("nothing tied: sliding thread, coulomb cones mu 0.3, 8 mm", 7,
+                (*MOVED, "effects.thread_interface=\"sliding\"", "effects.cone_interface=\"coulomb\"",
+                 "effects.friction_coefficient=0.3", "loading.displacement_mm=8"), "the device's model, nothing tied")
+    return thread + cones + [free]
 
 
 def _interface_cases(label: str, part: str) -> list[Case]:

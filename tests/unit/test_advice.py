@@ -8,8 +8,9 @@ from suture_fem.solve.diagnosis import advice
 from suture_fem.support.errors import StopCause
 
 
-def physics(degree=2, mixed=False, thread=True, friction=False, cones=False):
-    effects = SimpleNamespace(cone_contact=cones, unilateral_thread=thread, frictional_thread=friction, mixed=mixed)
+def physics(degree=2, mixed=False, thread=True, friction=False, cones=False, track=False):
+    effects = SimpleNamespace(cone_contact=cones, unilateral_thread=thread, frictional_thread=friction, mixed=mixed,
+                              thread_track=track or thread)
     return SimpleNamespace(effects=effects, degree=degree)
 
 
@@ -22,7 +23,7 @@ def test_a_frictionless_thread_in_the_mixed_formulation_is_pointed_to_the_displa
 
 def test_no_contact_advice_for_a_stop_it_does_not_explain():
     assert advice(physics(mixed=True), StopCause.GENT_LIMIT) == ""
-    assert "mesh.degree = 1" in advice(physics(cones=True), StopCause.NEWTON_DIVERGENCE)
+    assert "mesh.degree = 1" in advice(physics(cones=True, thread=False), StopCause.NEWTON_DIVERGENCE)
 
 
 def test_unilateral_cones_at_p1_get_the_release_advice_not_the_degree_they_already_have():
@@ -33,3 +34,10 @@ def test_unilateral_cones_at_p1_get_the_release_advice_not_the_degree_they_alrea
     tied = physics(degree=1, thread=False)
     assert "mesh.degree" not in advice(tied, StopCause.INVERTED_ELEMENT)
     assert "or use mesh.degree = 1" in advice(physics(degree=2, thread=False), StopCause.INVERTED_ELEMENT)
+
+
+def test_nothing_tied_is_pointed_to_the_moved_end_not_to_the_release():
+    free = physics(degree=1, thread=True, cones=True)
+    free.effects.cone_interface = "coulomb"
+    text = advice(free, StopCause.INVERTED_ELEMENT)
+    assert "nothing tied" in text and 'loading.control = "displacement"' in text and "release" not in text

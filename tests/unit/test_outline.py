@@ -44,3 +44,26 @@ def test_a_point_on_the_outline_has_the_faces_normal_and_an_arc_gives_its_radius
     assert q.normal[0] == pytest.approx([math.cos(0.3), math.sin(0.3)])
     assert q.tangent[0] == pytest.approx([-math.sin(0.3), math.cos(0.3)])
     assert list(inside(np.array([[0.5, 0.5], [1.5, 0.5], [0.2, 0.9]]), disc)) == [True, False, True]
+
+
+@pytest.mark.parametrize("orientation", ["apex_to_pull", "base_to_pull"])
+def test_a_cone_closed_to_the_axis_holds_the_track_off_its_side_on_the_thread(orientation):
+    """With the thread free, the track's tissue (r = r_t) is searched against the cone and the thread as one body.
+
+    On the cone's own outline a track node beside the cap lies on the cone's side along the thread (distance
+    0: the cone would pass with no gap); closed to the axis it is inside, at its depth below the cap's face.
+    """
+    from suture_fem.geometry.section import Geometry
+    from suture_fem.scene import Scene
+
+    scene = Scene.builtin("paper").with_values({"geometry.cones": 1, "geometry.cone_orientation": orientation})
+    g = Geometry.from_section(scene.geometry)
+    cone, r_t = g.cones[0], g.r_thread
+    sign = 1.0 if cone.apex_z > cone.base_z else -1.0  # the cap's face points toward the pull or away
+    node = np.array([[r_t, cone.apex_z - sign * 0.01]])  # 10 um inside the cap, on the thread's surface
+    assert project(node, cone.rounded(0.015, r_t)).distance[0] == pytest.approx(0.0, abs=1e-12)
+    p = project(node, cone.rounded(0.015, r_t, to_axis=True))
+    assert p.distance[0] == pytest.approx(-0.01)
+    assert p.normal[0] == pytest.approx([0.0, sign])
+    ahead = project(np.array([[r_t, cone.apex_z + sign * 0.02]]), cone.rounded(0.015, r_t, to_axis=True))
+    assert ahead.distance[0] == pytest.approx(0.02)  # ahead of the cap: its gap to the face

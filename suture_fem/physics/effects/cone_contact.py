@@ -72,6 +72,12 @@ log = logging.getLogger("suture_fem")
 #: k / (k + kappa) where the tissue's local stiffness k exceeds kappa (0.96 per update measured at a
 #: single cone's apex); the factor extrapolates such a mode up to 1 / (1 - rate).
 UZAWA_OMEGA_MAX = 50.0
+#: A trial state with a tissue node deeper inside a cone than this fraction of the cone's wall is outside the
+#: admissible domain (:meth:`ConeContact.deepest`): past the wall's middle the nearest point is on its far
+#: side, and the penalty would push the node on through the wall (a hollow cone's rim tissue, ending in its
+#: cavity, 5 mm "slipped", on the paper scene with nothing tied). Converged states lie within the augmented
+#: Lagrangian's target (0.15 um), 200 times less than a quarter of the paper's 0.13 mm wall.
+DEPTH_FRACTION = 0.25
 
 
 class ConeContact(SlipBound):
@@ -82,19 +88,26 @@ class ConeContact(SlipBound):
         dofs: (pairs, 2) global dofs (u_r(a), u_z(a)); X: (pairs, 2) reference positions (mm); cone: (pairs,)
         the cone of each; s0, phi0: (pairs,) the reference arc length and distance (mm); weight: (pairs,) m^2;
         cone_dofs: per cone, the global axial dofs of its interface nodes (every rank's); outlines: per cone, its
-        outline; kappa (Pa/m); model; mu (0: no friction); slip: s (m); bound: (pairs,) the frozen slip limit (Pa).
+        outline; kappa (Pa/m); model; mu (0: no friction); slip: s (m); bound: (pairs,) the frozen slip limit (Pa);
+        surface: (pairs,) True on a cone's surface, False for the track's tissue (the thread free in its track).
     """
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
-                 slip_m: float, target_m: float | None = None, convexified: bool = False):
+                 slip_m: float, target_m: float | None = None, convexified: bool = False, touch_holds: bool = False,
+                 depth_m: float = math.inf):
         """``state``: the state's PETSc vector; ``pairs``: :func:`cone_pairs`'s arrays.
 
         ``target_m``: the augmented Lagrangian's largest penetration (m); None: the pure penalty.
         ``convexified``: the unilateral Jacobian leaves out the distance's curvature where it softens (P2).
+        ``touch_holds``: a node that touches with no pressure (p = 0 exactly, as every node at rest) counts as
+        closed: with nothing tied, only the contact holds the suture, and at rest it would hold it by nothing
+        (a singular Jacobian: the first step from rest moved the suture through the tissue).
+        ``depth_m``: the deepest a tissue node may lie inside a cone in a trial state (m; :meth:`deepest`).
         """
         self.comm, self.kappa, self.model = comm, float(kappa), model
         self.augmented, self.target = target_m is not None, float(target_m or 0.0)
         self.bilateral = model == "sliding"
+        self.touch_holds, self.depth_limit = touch_holds, float(depth_m)
         self.convexified = convexified and not self.bilateral
         self.mu = float(mu) if model == "coulomb" else 0.0
         self.slip = float(slip_m)
@@ -105,9 +118,11 @@ class ConeContact(SlipBound):
         self.pairs = len(self.weight)
         self.s0, self.phi0 = np.zeros(self.pairs), np.zeros(self.pairs)
         self._of_cone = [np.flatnonzero(self.cone == c) for c in range(len(self.outlines))]
+        self.surface = np.asarray(pairs.get("surface", np.ones(self.pairs, dtype=bool)), dtype=bool)
         for sel, outline in zip(self._of_cone, self.outlines):
             start = project(self.X[sel], outline)
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
+        self.phi0[~self.surface] = 0.0  # the track's tissue starts off the cone: its gap is its distance
         self.bound = np.zeros(self.pairs)
         self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
         self._state = state
@@ -133,7 +148,8 @@ class ConeContact(SlipBound):
         target = section.contact_penetration_mm * regions.MM if augmented(section) else None
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
-                      target, convexified=getattr(physics, "degree", 1) != 1)
+                      target, convexified=getattr(physics, "degree", 1) != 1, touch_holds=section.thread_track,
+                      depth_m=DEPTH_FRACTION * scene.geometry.cone_wall_mm * regions.MM)
         physics.notes.setdefault("interfaces", {}).update(contact.notes())
         return contact
 
@@ -165,12 +181,26 @@ class ConeContact(SlipBound):
         self._found = (values.copy(), out)
         return out
 
+    def deepest(self) -> tuple[float, float, np.ndarray, int]:
+        """The state's deepest tissue node inside a cone: (depth (m), the limit (m), its reference place (mm), cone).
+
+        All ranks' (collective); the depth is 0 with no node inside.
+        """
+        found = self.search(self._state)
+        local = (0.0, np.zeros(2), 0)
+        if self.pairs:
+            k = int(np.argmin(found["phi"]))
+            if found["phi"][k] < 0.0:
+                local = (-float(found["phi"][k]), self.X[k].copy(), int(self.cone[k]))
+        depth, where, cone = max(self.comm.allgather(local), key=lambda item: item[0])
+        return depth, self.depth_limit, where, cone
+
     def _pressure(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(p, closed) per pair: p = lambda - kappa phi, clipped at 0 unless bilateral (Pa); closed: p > 0 (or all)."""
         trial = self.multiplier - self.kappa * phi
         if self.bilateral:
             return trial, np.ones(self.pairs, dtype=bool)
-        closed = trial > 0.0
+        closed = trial >= 0.0 if self.touch_holds else trial > 0.0
         return np.where(closed, trial, 0.0), closed
 
     def pressure(self) -> np.ndarray:
@@ -294,24 +324,45 @@ class ConeContact(SlipBound):
         found = self.search(u_vec)
         return {"gap_mm": found["phi"] / regions.MM, "slip_mm": found["g"] / regions.MM}
 
-    def status(self, u_vec: Any) -> dict[str, int]:
-        """How many cone-contact nodes are closed and stick, closed and slip, open (all ranks)."""
+    def status(self, u_vec: Any) -> dict[str, Any]:
+        """How many nodes on the cones are closed and stick, closed and slip, open; of the track's, how many pressed.
+
+        All ranks'; ``track_pressed_nodes`` only with the track's tissue in the search.
+        """
         found = self.search(u_vec)
         closed = self._pressure(found["phi"])[1]
         stick = closed & (np.abs(found["g"]) < 2.0 * self.slip) if self.mu > 0.0 else np.zeros(self.pairs, bool)
-        counts = np.array([stick.sum(), (closed & ~stick).sum(), (~closed).sum()])
-        stick_n, slip_n, open_n = (int(v) for v in self.comm.allreduce(counts))
-        return {"stick_nodes": stick_n, "slip_nodes": slip_n, "open_nodes": open_n}
+        on = self.surface
+        counts = np.array([(stick & on).sum(), (closed & ~stick & on).sum(), (~closed & on).sum(),
+                           (closed & ~on).sum(), (~on).sum()])
+        stick_n, slip_n, open_n, pressed_n, track_n = (int(v) for v in self.comm.allreduce(counts))
+        out: dict[str, Any] = {"stick_nodes": stick_n, "slip_nodes": slip_n, "open_nodes": open_n}
+        if track_n:  # the track's tissue a cone pushes ahead of it, and how far into the cone the deepest lies
+            deepest = float(np.max(-found["phi"][~on], initial=0.0))
+            out["track_pressed_nodes"] = pressed_n
+            out["track_penetration_max_mm"] = float(self.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
+        return out
+
+    def track_push(self, u_vec: Any) -> np.ndarray:
+        """Per cone, the axial force (N) its contact passes to the track's tissue (0 without it; all ranks)."""
+        grad, _ = self._gradient_hessian(u_vec)  # dE/dy: the terms' force on the tissue's node is -dE/dy
+        push = np.array([-float(np.sum(grad[(self.cone == c) & ~self.surface, 1])) for c in range(len(self.outlines))])
+        return np.asarray(self.comm.allreduce(push))
 
     def notes(self) -> dict[str, Any]:
         """The record's numbers: the pairs, the penalty, and (Coulomb) the coefficient and the slip."""
-        out: dict[str, Any] = {"cone_contact_pairs": int(self.comm.allreduce(self.pairs)),
+        track = int(self.comm.allreduce(int(np.count_nonzero(~self.surface))))
+        out: dict[str, Any] = {"cone_contact_pairs": int(self.comm.allreduce(self.pairs)) - track,
                                "cone_contact_penalty_pa_per_m": self.kappa,
                                "cone_contact_search": "each tissue node's nearest point on its cone's outline, the "
                                                       "outline moved by the cone's mean axial displacement, at "
                                                       "every residual and Jacobian evaluation",
                                "cone_contact_corner_radius_mm": self.corner_mm,
                                "cone_contact_method": "augmented" if self.augmented else "penalty"}
+        if track:
+            out["cone_contact_track_nodes"] = track
+            out["cone_contact_track_search"] = ("each of the track's tissue nodes against the cone that slides toward "
+                                                "it (the nearest whose lower end is at or below the node)")
         if self.augmented:
             out["contact_penetration_target_mm"] = self.target / regions.MM
         if self.convexified:

@@ -5,6 +5,11 @@
 ``cone_contact``, its cone, its 2 pi r-weighted lumped area, and every cone's axial dofs on its interface,
 with each cone's outline rounded at its sharp convex corners for the search
 (:mod:`~suture_fem.physics.effects.cone_contact`).
+
+With the thread free in its track too (``effects.thread_interface`` not tied), the tissue's nodes on the track
+(facets tagged ``track``) join the search, each against the cone that slides toward it: the nearest cone whose
+lower end lies at or below the node (the pull moves every cone toward +z), the first cone for the nodes
+below every cone. A cone then pushes the track's tissue ahead of its apex instead of passing through it.
 """
 
 from __future__ import annotations
@@ -42,16 +47,29 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
         raise ValueError("effects.cone_interface needs the mesh built with the cones' surfaces split "
                          "(suture_fem.geometry.mesh.scene_mesh, or create_mesh(..., split_cones=True))")
     suture = mark_dofs(V, meshmod.region_cells(tagged, regions.SUTURE)).reshape(n_local, -1).any(axis=1)
-    nodes = np.flatnonzero(mark_facet_nodes(V, fdim, facets) & ~suture)  # a node's facets may be on another rank
+    on_cones = mark_facet_nodes(V, fdim, facets) & ~suture  # a node's facets may be on another rank
+    nodes = np.flatnonzero(on_cones)
     nodes = nodes[nodes < owned]
     v = ufl.TestFunction(V)
     x = ufl.SpatialCoordinate(mesh)
-    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags)(int(Facet.CONE_CONTACT))
-    area = _assembled(v[1] * 2 * math.pi * x[0] * ds, owned)[:, 1]  # int phi 2 pi r ds: the lumped area
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags)
+    area = _assembled(v[1] * 2 * math.pi * x[0] * ds(int(Facet.CONE_CONTACT)), owned)[:, 1]  # the lumped area
     xy = V.tabulate_dof_coordinates()[:, :2] / regions.MM
     cones = tagged.geometry.cones
     rho = CORNER_ROUNDING * tagged.sizes.suture
     cone = _cone_of(xy[nodes], cones, tagged.geometry.z_end)
+    own = np.ones(len(nodes), dtype=bool)  # on a cone's own surface
+    track_facets = meshmod.facets(tagged, Facet.TRACK)
+    free = bool(mesh.comm.allreduce(len(track_facets)))
+    if free:  # the thread free in its track: its tissue joins the search
+        track = np.flatnonzero(mark_facet_nodes(V, fdim, track_facets) & ~suture & ~on_cones)
+        track = track[track < owned]
+        track_area = _assembled(v[1] * 2 * math.pi * x[0] * ds(int(Facet.TRACK)), owned)[:, 1]
+        nodes = np.concatenate([nodes, track])
+        cone = np.concatenate([cone, _cone_behind(xy[track], cones)])
+        area = area.copy()
+        area[track] = track_area[track]
+        own = np.concatenate([own, np.zeros(len(track), dtype=bool)])
     cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)
     faces = mark_facet_nodes(V, fdim, meshmod.facets(tagged, Facet.INTERFACE))
     surface = np.flatnonzero(cone_cells & faces)
@@ -61,9 +79,9 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
     cone_dofs = [np.concatenate(physics.comm.allgather(axial[of_surface == c])).astype(np.int64)
                  for c in range(len(cones))]
     dofs = np.stack([global_dofs(physics, nodes, 0), global_dofs(physics, nodes, 1)], axis=1)
-    return {"nodes": nodes, "dofs": dofs, "X": xy[nodes], "cone": cone, "weight": area[nodes],
+    return {"nodes": nodes, "dofs": dofs, "X": xy[nodes], "cone": cone, "weight": area[nodes], "surface": own,
             "cone_dofs": cone_dofs, "corner_mm": rho,
-            "outlines": [c.rounded(rho, tagged.geometry.r_thread) for c in cones]}
+            "outlines": [c.rounded(rho, tagged.geometry.r_thread, to_axis=free) for c in cones]}
 
 
 def _cone_of(xy_mm: np.ndarray, cones: list, z_end: float) -> np.ndarray:
@@ -74,6 +92,13 @@ def _cone_of(xy_mm: np.ndarray, cones: list, z_end: float) -> np.ndarray:
         lo, hi = min(c.base_z, c.apex_z), max(c.base_z, c.apex_z)
         out[(xy_mm[:, 1] >= lo - tol) & (xy_mm[:, 1] <= hi + tol)] = k
     return out
+
+
+def _cone_behind(xy_mm: np.ndarray, cones: list) -> np.ndarray:
+    """For each point, the cone that slides toward it: the one whose lower end is the highest at or below it."""
+    lower = np.array([min(c.base_z, c.apex_z) for c in cones])
+    behind = np.searchsorted(np.sort(lower), xy_mm[:, 1], side="right") - 1
+    return np.argsort(lower)[np.maximum(behind, 0)].astype(np.int64)
 
 
 def _assembled(linear: Any, owned: int) -> np.ndarray:

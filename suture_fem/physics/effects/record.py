@@ -21,8 +21,8 @@ HOLD_SKIPPED = (
 )
 
 
-_CONE_PAIRS = ("the tissue's side of every cone surface has its own nodes, each paired with the cone node it faced "
-               "in the reference configuration; a penalty acts on their relative motion along the cone's normal there")
+_CONE_PAIRS = ("the tissue's side of every cone surface has its own nodes, each projected onto its cone's outline (the "
+               "cone moved as a rigid body) wherever it slides; a penalty acts on its signed distance to the outline")
 #: What each cone interface model is, for the record.
 CONE_MODELS = {
     "tied": "tied: the cones and the tissue share their interface nodes",
@@ -204,11 +204,6 @@ def check_scene(scene: Scene) -> None:
     if e.cone_interface != "tied" and scene.geometry.cones == 0:
         raise SceneError(f'scene key effects.cone_interface = "{e.cone_interface}" needs geometry.cones >= 1 '
                          '(there is no cone surface); use "tied" with geometry.cones = 0')
-    if e.cone_interface != "tied" and e.thread_interface != "tied":
-        raise SceneError(f'scene key effects.cone_interface = "{e.cone_interface}" needs effects.thread_interface = '
-                         f'"tied", got "{e.thread_interface}": the cones\' contact checks the tissue of their own '
-                         "surfaces only, so with the thread free in its track a cone would pass through the track's "
-                         "tissue ahead of it; leave one of the two interfaces tied")
     if e.cone_interface != "tied" and e.inertia:
         raise SceneError(f'scene key effects.cone_interface = "{e.cone_interface}" needs effects.inertia = false '
                          "(the cones' contact terms are not part of the time history)")

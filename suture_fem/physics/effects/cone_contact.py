@@ -75,8 +75,9 @@ UZAWA_OMEGA_MAX = 50.0
 #: A trial state with a tissue node deeper inside a cone than this fraction of the cone's wall is outside the
 #: admissible domain (:meth:`ConeContact.deepest`): past the wall's middle the nearest point is on its far
 #: side, and the penalty would push the node on through the wall (a hollow cone's rim tissue, ending in its
-#: cavity, 5 mm "slipped", on the paper scene with nothing tied). Converged states lie within the augmented
-#: Lagrangian's target (0.15 um), 200 times less than a quarter of the paper's 0.13 mm wall.
+#: cavity, 5 mm "slipped", on the paper scene with the thread tied or not). Converged states lie within the
+#: augmented Lagrangian's target (0.15 um), 200 times less than a quarter of the paper's 0.13 mm wall; a full
+#: cone is thicker, so the same limit is only more cautious there.
 DEPTH_FRACTION = 0.25
 
 

@@ -19,16 +19,17 @@ CPU seconds, summed over every MPI rank, and its peak resident memory, the large
   seconds (``timings_s.outputs``). Each run is written to the JSON as it ends; not in the
   default parts.
 * ``p2``: quadratic tetrahedra (``mesh.degree = 2``), 1 cone, pulled to 1 N, the critical-distance ball at
-  its default: the [mesh] sizes times 4, 2.83, 2, 1.41, ..., coarsest first, against 2-D P2 on the same sizes
-  and the 2-D reference (P2, refinement 1). A rung is run only while the previous rungs predict it under
-  ``--cpu-limit`` CPU seconds and ``--memory-limit`` GiB (dofs, CPU and memory extrapolated from the last
-  two rungs, and the package's own estimate before meshing); ``solver.linear_method`` at its default
-  ("auto": MUMPS under ``solver.iterative_from_dofs``). Each run is written to the JSON as it ends; not
-  in the default parts.
+  its default: the [mesh] sizes times 4, 2.83, 2, 1.41, 1 (``--p2-factors``), coarsest first, against 2-D P2
+  on the same sizes and the 2-D reference (P2, refinement 1). A rung is run only while it is predicted under
+  ``--cpu-limit`` CPU seconds and ``--memory-limit`` GiB (the last rung's measured dofs, CPU and memory grown
+  by the package's own estimate before meshing, CPU as its 2.2th power); ``solver.linear_method`` at its
+  default ("auto": MUMPS under ``solver.iterative_from_dofs``). ``--p2-set`` adds scene keys to every run
+  (docs/three-d.md runs it with ``solver.gent_limit_fraction=1.0``: with the default check P2 stops at the
+  outer surface's corner before 1 N). Each run is written to the JSON as it ends; not in the default parts.
 
     .venv/bin/python benchmarks/three_d.py [--parts ladder ranks solvers critical_distance p2] \
         [--out benchmarks/out/three_d] [--cpu-limit 3600] [--memory-limit 8] [--p2-set KEY=VALUE ...] \
-        [--p2-name p2]
+        [--p2-name p2] [--p2-factors 4 2.83 2 1.41 1]
 """
 
 from __future__ import annotations
@@ -242,16 +243,19 @@ def p2_row(model: str, factor: float | None, res: dict, reference: float | None)
             **{f"{q}_at_rz_mm": rz(tissue.get(f"{q}_at_mm")) for q in MEASURES}}
 
 
-def p2(tmp: Path, out: Path, cpu_limit: float, memory_limit: float, extra: list[str], name: str) -> list[dict]:
+def p2(tmp: Path, out: Path, limits: tuple[float, float], extra: list[str], name: str,
+       factors: tuple[float, ...] = P2_FACTORS) -> list[dict]:
     """The P2 3-D ladder at 1 cone, 1 N, coarsest first, while the next rung is predicted to fit the limits.
 
-    ``extra``: scene keys for every run of the part (``--p2-set``); ``name``: the JSON's name (``--p2-name``).
+    ``limits``: the largest predicted CPU s and peak GiB of a rung; ``extra``: scene keys for every run of the
+    part (``--p2-set``); ``name``: the JSON's name (``--p2-name``); ``factors``: the rungs (``--p2-factors``).
     """
+    cpu_limit, memory_limit = limits
     common = ["geometry.cones=1", "loading.force_n=1.0", "loading.report_forces_n=[]", *BASE_CD_2D, *extra]
     ref = run("p2_2d_ref", [*common, "mesh.refinement=1"], tmp)
     reference = at(ref, 1.0).get("usum_mm")
     rows, done = [p2_row("2-D P2 ref. 1", None, ref, reference)], []
-    for f in P2_FACTORS:
+    for f in factors:
         scene = [*common, "geometry.dimension=3", "mesh.degree=2", *sized(f)]
         guess = predicted(done, estimated(scene))
         print(f"  3-D P2 x{f:g}: predicted {guess}", flush=True)
@@ -289,12 +293,14 @@ def main() -> int:
     parser.add_argument("--memory-limit", type=float, default=8.0, help="p2: largest predicted peak GiB of a rung")
     parser.add_argument("--p2-set", nargs="*", default=[], help="p2: scene keys KEY=VALUE for every run of the part")
     parser.add_argument("--p2-name", default="p2", help="p2: the JSON's file name (without .json)")
+    parser.add_argument("--p2-factors", nargs="+", type=float, default=list(P2_FACTORS), help="p2: the rungs' factors")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     parts = {"ladder": ladder, "ranks": ranks, "solvers": solvers,
              "critical_distance": lambda tmp: critical_distance(tmp, out),
-             "p2": lambda tmp: p2(tmp, out, args.cpu_limit, args.memory_limit, args.p2_set, args.p2_name)}
+             "p2": lambda tmp: p2(tmp, out, (args.cpu_limit, args.memory_limit), args.p2_set, args.p2_name,
+                                  tuple(args.p2_factors))}
     columns = {
         "ladder": ["cones", "model", "force_n", "dofs", "cpu_s", "peak_memory_mb", "status", *QUANTITIES,
                    *[f"tissue_{q}" for q in TISSUE], "seqv_outside_rim_at_rz_mm", "stop_cause", "load_reached_n"],

@@ -18,9 +18,18 @@ CPU seconds, summed over every MPI rank, and its peak resident memory, the large
   at x2), against the 2-D model (P1 on the same sizes, P2 one refinement finer); the outputs' wall
   seconds (``timings_s.outputs``). Each run is written to the JSON as it ends; not in the
   default parts.
+* ``p2``: quadratic tetrahedra (``mesh.degree = 2``), 1 cone, pulled to 1 N, the critical-distance ball at
+  its default: the [mesh] sizes times 4, 2.83, 2, 1.41, 1 (``--p2-factors``), coarsest first, against 2-D P2
+  on the same sizes and the 2-D reference (P2, refinement 1). A rung is run only while it is predicted under
+  ``--cpu-limit`` CPU seconds and ``--memory-limit`` GiB (the last rung's measured dofs, CPU and memory grown
+  by the package's own estimate before meshing, CPU as its 2.2th power); ``solver.linear_method`` at its
+  default ("auto": MUMPS under ``solver.iterative_from_dofs``). ``--p2-set`` adds scene keys to every run
+  (docs/three-d.md runs it with ``solver.gent_limit_fraction=1.0``: with the default check P2 stops at the
+  outer surface's corner before 1 N). Each run is written to the JSON as it ends; not in the default parts.
 
-    .venv/bin/python benchmarks/three_d.py [--parts ladder ranks solvers critical_distance] \
-        [--out benchmarks/out/three_d]
+    .venv/bin/python benchmarks/three_d.py [--parts ladder ranks solvers critical_distance p2] \
+        [--out benchmarks/out/three_d] [--cpu-limit 3600] [--memory-limit 8] [--p2-set KEY=VALUE ...] \
+        [--p2-name p2] [--p2-factors 4 2.83 2 1.41 1]
 """
 
 from __future__ import annotations
@@ -38,6 +47,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from suture_fem.geometry.estimate_3d import estimate_3d  # noqa: E402
+from suture_fem.geometry.gmsh_model import MeshSizes  # noqa: E402
+from suture_fem.geometry.section import Geometry  # noqa: E402
+from suture_fem.scene.load import parse_scene  # noqa: E402
 from suture_fem.support.io import write_json  # noqa: E402
 
 #: The 3-D scene's common keys: the outputs 3-D has, P1.
@@ -59,17 +72,23 @@ def sized(factor: float) -> list[str]:
     return [f"mesh.size_suture_mm={s}", f"mesh.size_rim_mm={r}", f"mesh.size_far_mm={f}"]
 
 
-def run(label: str, overrides: list[str], tmp: Path, ranks: int = 1) -> dict:
-    """One run in its own process: results.json, CPU (all ranks), wall, peak memory (largest rank)."""
+def run(label: str, overrides: list[str], tmp: Path, ranks: int = 1, verbose: bool = False) -> dict:
+    """One run in its own process: results.json, CPU (all ranks), wall, peak memory (largest rank).
+
+    ``verbose``: the run logs its steps (``-v``) to ``<label>.log`` beside its folder as it goes.
+    """
     out = tmp / label.replace(" ", "_")
-    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "run", "paper", *[a for o in overrides for a in ("--set", o)],
-           "--no-pictures", "--out", str(out)]
+    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", *(["-v"] if verbose else []), "run", "paper",
+           *[a for o in overrides for a in ("--set", o)], "--no-pictures", "--out", str(out)]
     if ranks > 1:
         cmd = [shutil.which("mpirun"), "-n", str(ranks), "--allow-run-as-root", "--oversubscribe", *cmd]
     stats = tmp / (label.replace(" ", "_") + ".time")
     t0 = time.perf_counter()
-    proc = subprocess.run(["/usr/bin/time", "-f", "%U %S %M", "-o", str(stats), *cmd], capture_output=True,
-                          text=True, cwd=ROOT, env=dict(os.environ, OMP_NUM_THREADS="1"))
+    log = tmp / (label.replace(" ", "_") + ".log")
+    with log.open("w") as err:
+        proc = subprocess.run(["/usr/bin/time", "-f", "%U %S %M", "-o", str(stats), *cmd], stdout=subprocess.PIPE,
+                              stderr=err, text=True, cwd=ROOT, env=dict(os.environ, OMP_NUM_THREADS="1"))
+    proc.stderr = log.read_text()
     wall = time.perf_counter() - t0
     user, system, peak_kb = stats.read_text().split()[-3:]
     res = json.loads((out / "results.json").read_text()) if (out / "results.json").is_file() else {}
@@ -184,6 +203,78 @@ def critical_distance(tmp: Path, out: Path | None = None) -> list[dict]:
     return rows
 
 
+#: The P2 ladder's size factors, coarsest first (each rung's sizes sqrt 2 smaller).
+P2_FACTORS = (4.0, 2.83, 2.0, 1.41, 1.0)
+#: P1's CPU growth with the dofs on the ladder's finest rungs (765 -> 2,726 CPU s for 1.77 times the dofs).
+CPU_EXPONENT = 2.2
+
+
+def estimated(overrides: list[str]) -> dict:
+    """The package's own estimate before meshing (tetrahedra, unknowns, GiB) of a 3-D scene."""
+    scene = parse_scene("paper", overrides)
+    e = estimate_3d(Geometry.from_section(scene.geometry), MeshSizes.from_section(scene.mesh), scene.mesh.degree)
+    return {"cells": e.cells, "unknowns": e.unknowns, "memory_gib": e.memory_gib}
+
+
+def predicted(done: list[dict], estimate: dict) -> dict:
+    """The next rung's dofs, CPU s and peak GiB from the last rung solved and the estimate's growth."""
+    if not done:
+        return {"dofs": estimate["unknowns"], "cpu_s": None, "memory_gib": estimate["memory_gib"]}
+    last = done[-1]
+    growth = estimate["unknowns"] / last["estimate"]["unknowns"]  # the estimate's ratio; its own scale is off
+    return {"dofs": int(last["dofs"] * growth), "cpu_s": last["cpu_s"] * growth**CPU_EXPONENT,
+            "memory_gib": last["peak_memory_mb"] / 1024 * growth**1.3}
+
+
+def p2_row(model: str, factor: float | None, res: dict, reference: float | None) -> dict:
+    """One run of the P2 ladder: cost, USUM, its error against the reference, the tissue's ball averages."""
+    state = at(res, 1.0)
+    tissue = state.get("regions", {}).get("tissue", {})
+    usum = state.get("usum_mm")
+    return {"model": model, "factor": factor, "dofs": res.get("dofs"), "cells": res.get("cells"),
+            "cpu_s": res["process_cpu_s"], "peak_memory_mb": res["peak_memory_mb"],
+            "newton_iterations": res.get("newton_iterations"), "linear_solver": res.get("linear_solver"),
+            "fallbacks": res.get("linear_solver_fallbacks"), "status": res.get("status"),
+            "stop": (res.get("diagnosis") or {}).get("cause"),
+            "load_reached_n": (res.get("diagnosis") or {}).get("load_reached_n"), "log_tail": res.get("log_tail"),
+            "timings_s": res.get("timings_s"), "usum_mm": usum,
+            "usum_error_pct": None if usum is None or reference is None else 100.0 * (usum / reference - 1.0),
+            **{f"tissue_{q}": tissue.get(q) for q in MEASURES},
+            **{f"{q}_at_rz_mm": rz(tissue.get(f"{q}_at_mm")) for q in MEASURES}}
+
+
+def p2(tmp: Path, out: Path, limits: tuple[float, float], extra: list[str], name: str,
+       factors: tuple[float, ...] = P2_FACTORS) -> list[dict]:
+    """The P2 3-D ladder at 1 cone, 1 N, coarsest first, while the next rung is predicted to fit the limits.
+
+    ``limits``: the largest predicted CPU s and peak GiB of a rung; ``extra``: scene keys for every run of the
+    part (``--p2-set``); ``name``: the JSON's name (``--p2-name``); ``factors``: the rungs (``--p2-factors``).
+    """
+    cpu_limit, memory_limit = limits
+    common = ["geometry.cones=1", "loading.force_n=1.0", "loading.report_forces_n=[]", *BASE_CD_2D, *extra]
+    ref = run("p2_2d_ref", [*common, "mesh.refinement=1"], tmp)
+    reference = at(ref, 1.0).get("usum_mm")
+    rows, done = [p2_row("2-D P2 ref. 1", None, ref, reference)], []
+    for f in factors:
+        scene = [*common, "geometry.dimension=3", "mesh.degree=2", *sized(f)]
+        guess = predicted(done, estimated(scene))
+        print(f"  3-D P2 x{f:g}: predicted {guess}", flush=True)
+        if (guess["cpu_s"] or 0) > cpu_limit or guess["memory_gib"] > memory_limit:
+            rows.append({"model": f"3-D P2 x{f:g}", "factor": f, "status": "not run", "predicted": guess})
+            break
+        res = run(f"p2_3d_{f:g}", scene, tmp, verbose=True)
+        row = p2_row(f"3-D P2 x{f:g}", f, res, reference)
+        row.update(predicted=guess, estimate=estimated(scene))
+        two_d = run(f"p2_2d_{f:g}", [*common, *sized(f)], tmp)
+        rows += [row, p2_row(f"2-D P2 x{f:g}", f, two_d, reference)]
+        write_json(out / f"{name}.json", {"part": "p2", "set": extra, "reference_usum_mm": reference, "rows": rows})
+        if row["status"] != "converged":
+            break
+        done.append(row)
+    write_json(out / f"{name}.json", {"part": "p2", "set": extra, "reference_usum_mm": reference, "rows": rows})
+    return rows
+
+
 def table(rows: list[dict], keys: list[str]) -> str:
     """A markdown table of the rows' keys (numbers to 4 significant digits)."""
     def fmt(v: object) -> str:
@@ -198,11 +289,18 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--parts", nargs="+", default=["ladder", "ranks", "solvers"])
     parser.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "three_d"))
+    parser.add_argument("--cpu-limit", type=float, default=3600.0, help="p2: largest predicted CPU s of a rung")
+    parser.add_argument("--memory-limit", type=float, default=8.0, help="p2: largest predicted peak GiB of a rung")
+    parser.add_argument("--p2-set", nargs="*", default=[], help="p2: scene keys KEY=VALUE for every run of the part")
+    parser.add_argument("--p2-name", default="p2", help="p2: the JSON's file name (without .json)")
+    parser.add_argument("--p2-factors", nargs="+", type=float, default=list(P2_FACTORS), help="p2: the rungs' factors")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     parts = {"ladder": ladder, "ranks": ranks, "solvers": solvers,
-             "critical_distance": lambda tmp: critical_distance(tmp, out)}
+             "critical_distance": lambda tmp: critical_distance(tmp, out),
+             "p2": lambda tmp: p2(tmp, out, (args.cpu_limit, args.memory_limit), args.p2_set, args.p2_name,
+                                  tuple(args.p2_factors))}
     columns = {
         "ladder": ["cones", "model", "force_n", "dofs", "cpu_s", "peak_memory_mb", "status", *QUANTITIES,
                    *[f"tissue_{q}" for q in TISSUE], "seqv_outside_rim_at_rz_mm", "stop_cause", "load_reached_n"],
@@ -211,12 +309,15 @@ def main() -> int:
                     "per_iteration_s", "recorded_solver", "fallbacks", "usum_mm"],
         "critical_distance": ["cones", "model", "dofs", "cpu_s", "peak_memory_mb", "outputs_wall_s", "status",
                               "usum_mm", *[f"tissue_{q}" for q in MEASURES], *[f"{q}_at_rz_mm" for q in MEASURES]],
+        "p2": ["model", "dofs", "cells", "cpu_s", "peak_memory_mb", "newton_iterations", "linear_solver", "status",
+               "usum_mm", "usum_error_pct", *[f"tissue_{q}" for q in MEASURES]],
     }
     with tempfile.TemporaryDirectory(prefix="three_d_") as tmp:
         for name in args.parts:
             print(f"{name}:", flush=True)
             rows = parts[name](Path(tmp))
-            write_json(out / f"{name}.json", {"part": name, "rows": rows})
+            if name != "p2":  # p2 writes its own, with the reference and the keys set
+                write_json(out / f"{name}.json", {"part": name, "rows": rows})
             print(table(rows, columns[name]), flush=True)
     print(f"wrote {out}")
     return 0

@@ -183,16 +183,26 @@ def test_the_augmented_lagrangian_meets_its_target_whatever_its_penalty(tmp_path
     assert b["load_share_n"]["cone_1"] == pytest.approx(a["load_share_n"]["cone_1"], rel=1e-2)
 
 
+#: How far the augmented Lagrangian's answer may move with its path: it ends when every pressed node lies within
+#: its target (0.15 um) of the cone, so runs along other load paths end at other multipliers. Measured on this
+#: scene, the default target against one 100 times tighter: USUM 2.1e-6 relative, the cone's share 2.8e-5 N of
+#: the 1 N pull, slip 1e-6 relative, the node counts equal. Two ranks round off otherwise and may step otherwise
+#: (Debian 12: 299 against 327 Newton iterations, USUM equal to 5e-13; Debian 13: 1.2e-8 apart), so they are
+#: compared to these; a partition's error (a node's contact missed on a rank) moved USUM by 7.5e-3 before.
+PATH_SPREAD = {"usum_rel": 2e-6, "share_n": 3e-5, "slip_rel": 1e-5}
+
+
 def test_two_ranks_give_the_serial_frictionless_cone(tmp_path_factory, frictionless):
     par = _run(tmp_path_factory, "frictionless2", _cones("frictionless"), ranks=2)
     a, b = frictionless["at_forces"][-1], par["at_forces"][-1]
     assert par["mpi_ranks"] == 2
-    assert b["usum_mm"] == pytest.approx(a["usum_mm"], rel=1e-8)
+    assert b["usum_mm"] == pytest.approx(a["usum_mm"], rel=PATH_SPREAD["usum_rel"])
     for name in a["load_share_n"]:
-        assert b["load_share_n"][name] == pytest.approx(a["load_share_n"][name], rel=1e-7, abs=1e-10)
+        assert b["load_share_n"][name] == pytest.approx(a["load_share_n"][name], abs=PATH_SPREAD["share_n"])
     ca, cb = a["interface"]["cone_contact"], b["interface"]["cone_contact"]
     assert (cb["open_nodes"], cb["slip_nodes"]) == (ca["open_nodes"], ca["slip_nodes"])
-    assert cb["cones"]["cone_1"]["slip_max_mm"] == pytest.approx(ca["cones"]["cone_1"]["slip_max_mm"], rel=1e-6)
+    slip = ca["cones"]["cone_1"]["slip_max_mm"]
+    assert cb["cones"]["cone_1"]["slip_max_mm"] == pytest.approx(slip, rel=PATH_SPREAD["slip_rel"])
 
 
 @pytest.mark.parametrize("more, named", [(["geometry.cones=0"], "geometry.cones"),

@@ -188,7 +188,8 @@ def test_the_augmented_lagrangian_meets_its_target_whatever_its_penalty(tmp_path
 #: scene, the default target against one 100 times tighter: USUM 2.1e-6 relative, the cone's share 2.8e-5 N of
 #: the 1 N pull, slip 1e-6 relative, the node counts equal. Two ranks round off otherwise and may step otherwise
 #: (Debian 12: 299 against 327 Newton iterations, USUM equal to 5e-13; Debian 13: 1.2e-8 apart), so they are
-#: compared to these; a partition's error (a node's contact missed on a rank) moved USUM by 7.5e-3 before.
+#: compared to these; what this test is for shows far above them (a sharp corner's two equilibria once put
+#: serial and two ranks 7.5e-3 apart, docs/contact.md).
 PATH_SPREAD = {"usum_rel": 2e-6, "share_n": 3e-5, "slip_rel": 1e-5}
 
 

@@ -86,7 +86,7 @@ def _cone_advice(effects: Any, degree: int) -> str:
                 "(docs/contact.md: Nothing tied)")
     if degree == 2:
         return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
-                "cone reaches about 1 N, four stop in their first step (docs/contact.md: P2 cones)")
+                "cone stops at 0.4-0.6 N, four in their first step (docs/contact.md: P2 cones)")
     if effects.cone_interface == "sliding":
         return ""
     return ("; unilateral cones stall where the tissue releases from them (a few nodes swapping between open and "

@@ -257,14 +257,15 @@ def p2(tmp: Path, out: Path, limits: tuple[float, float], extra: list[str], name
     rows, done = [p2_row("2-D P2 ref. 1", None, ref, reference)], []
     for f in factors:
         scene = [*common, "geometry.dimension=3", "mesh.degree=2", *sized(f)]
-        guess = predicted(done, estimated(scene))
+        estimate = estimated(scene)
+        guess = predicted(done, estimate)
         print(f"  3-D P2 x{f:g}: predicted {guess}", flush=True)
         if (guess["cpu_s"] or 0) > cpu_limit or guess["memory_gib"] > memory_limit:
             rows.append({"model": f"3-D P2 x{f:g}", "factor": f, "status": "not run", "predicted": guess})
             break
         res = run(f"p2_3d_{f:g}", scene, tmp, verbose=True)
         row = p2_row(f"3-D P2 x{f:g}", f, res, reference)
-        row.update(predicted=guess, estimate=estimated(scene))
+        row.update(predicted=guess, estimate=estimate)
         two_d = run(f"p2_2d_{f:g}", [*common, *sized(f)], tmp)
         rows += [row, p2_row(f"2-D P2 x{f:g}", f, two_d, reference)]
         write_json(out / f"{name}.json", {"part": "p2", "set": extra, "reference_usum_mm": reference, "rows": rows})

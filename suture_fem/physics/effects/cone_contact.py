@@ -185,15 +185,16 @@ class ConeContact(SlipBound):
     def deepest(self) -> tuple[float, float, np.ndarray, int]:
         """The state's deepest tissue node inside a cone: (depth (m), the limit (m), its reference place (mm), cone).
 
-        All ranks' (collective); the depth is 0 with no node inside.
+        All ranks' (collective); the depth is 0 with no node inside; the place and cone only past the limit.
         """
-        found = self.search(self._state)
-        local = (0.0, np.zeros(2), 0)
-        if self.pairs:
-            k = int(np.argmin(found["phi"]))
-            if found["phi"][k] < 0.0:
-                local = (-float(found["phi"][k]), self.X[k].copy(), int(self.cone[k]))
-        depth, where, cone = max(self.comm.allgather(local), key=lambda item: item[0])
+        phi = self.search(self._state)["phi"]
+        k = int(np.argmin(phi)) if self.pairs else -1
+        mine = max(-float(phi[k]), 0.0) if self.pairs else 0.0
+        depth = float(self.comm.allreduce(mine, op=MPI.MAX))
+        if depth <= self.depth_limit:  # every trial state of a solve: one reduction, no place needed
+            return depth, self.depth_limit, np.zeros(2), 0
+        local = (mine, self.X[k].copy(), int(self.cone[k])) if mine == depth else None
+        where, cone = next(item[1:] for item in self.comm.allgather(local) if item is not None)
         return depth, self.depth_limit, where, cone
 
     def _pressure(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -263,8 +264,16 @@ class ConeContact(SlipBound):
             value = value + self.weight * self.bound * self.slip * (x + np.log1p(np.exp(-2.0 * x)) - math.log(2.0))
         return float(self.comm.allreduce(float(np.sum(value))))
 
-    def _gradient_hessian(self, u_vec: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Per pair: dE/dy (pairs, 2) and d2E/dy2 (pairs, 2, 2; the friction's turning tangent left out).
+    def _gradient(self, u_vec: Any) -> np.ndarray:
+        """Per pair: dE/dy (pairs, 2), N."""
+        found = self.search(u_vec)
+        grad = -(self.weight * self._pressure(found["phi"])[0])[:, None] * found["n"]
+        if self.mu > 0.0:
+            grad += (self.weight * self._law(found["g"])[0])[:, None] * found["T"]
+        return grad
+
+    def _hessian(self, u_vec: Any) -> np.ndarray:
+        """Per pair: d2E/dy2 (pairs, 2, 2; the friction's turning tangent left out).
 
         Convexified (P2, unilateral): -w p d2(phi) is kept only where it stiffens; beside a convex arc or
         corner it is a negative tangential stiffness -w p / R, which at P2 sent Newton down a direction of
@@ -273,24 +282,21 @@ class ConeContact(SlipBound):
         found = self.search(u_vec)
         p, closed = self._pressure(found["phi"])
         n, T = found["n"], found["T"]
-        grad = -(self.weight * p)[:, None] * n
         # d2E = kappa w n n^T (closed) - w p d2(phi), d2(phi) = curvature (I - n n^T) (0 beside a straight segment)
         nn = n[:, :, None] * n[:, None, :]
         curvature = np.minimum(found["curvature"], 0.0) if self.convexified else found["curvature"]
         bend = (-self.weight * p * curvature)[:, None, None] * (np.eye(2)[None, :, :] - nn)
         hess = (self.kappa * self.weight * closed)[:, None, None] * nn + bend
         if self.mu > 0.0:
-            t, dt = self._law(found["g"])
-            grad += (self.weight * t)[:, None] * T
-            hess += (self.weight * dt)[:, None, None] * T[:, :, None] * T[:, None, :]
-        return grad, hess
+            hess += (self.weight * self._law(found["g"])[1])[:, None, None] * T[:, :, None] * T[:, None, :]
+        return hess
 
     def add_residual(self, u_vec: Any, b: Any) -> None:
         """Add the terms' gradient to the full residual ``b`` (assembled; collective).
 
         Node a receives dE/dy; the cone's axial dofs share -dE/dy_z equally (y moves by -t_c e_z).
         """
-        grad, _ = self._gradient_hessian(u_vec)
+        grad = self._gradient(u_vec)
         rows = [self.dofs.ravel()]
         values = [grad.ravel()]
         for c, dofs in enumerate(self.cone_dofs):
@@ -303,7 +309,7 @@ class ConeContact(SlipBound):
 
     def add_jacobian(self, u_vec: Any, A: Any) -> None:
         """Add the terms' Hessian (symmetric) to the full Jacobian ``A`` (assembled; collective)."""
-        _, hess = self._gradient_hessian(u_vec)
+        hess = self._hessian(u_vec)
         self._add_blocks(A, hess)
 
     def _add_blocks(self, A: Any, hess: np.ndarray) -> None:
@@ -346,7 +352,7 @@ class ConeContact(SlipBound):
 
     def track_push(self, u_vec: Any) -> np.ndarray:
         """Per cone, the axial force (N) its contact passes to the track's tissue (0 without it; all ranks)."""
-        grad, _ = self._gradient_hessian(u_vec)  # dE/dy: the terms' force on the tissue's node is -dE/dy
+        grad = self._gradient(u_vec)  # dE/dy: the terms' force on the tissue's node is -dE/dy
         push = np.array([-float(np.sum(grad[(self.cone == c) & ~self.surface, 1])) for c in range(len(self.outlines))])
         return np.asarray(self.comm.allreduce(push))
 

@@ -67,7 +67,6 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
         track_area = _assembled(v[1] * 2 * math.pi * x[0] * ds(int(Facet.TRACK)), owned)[:, 1]
         nodes = np.concatenate([nodes, track])
         cone = np.concatenate([cone, _cone_behind(xy[track], cones)])
-        area = area.copy()
         area[track] = track_area[track]
         own = np.concatenate([own, np.zeros(len(track), dtype=bool)])
     cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)

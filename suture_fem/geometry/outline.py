@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: Points sampled on each piece of a way between its crossings of an outline (:func:`deepest_on_way`).
+WAY_SAMPLES = 7
 #: Distance (mm) below which a point counts as on a corner of the outline (its normal is then the corner's).
 ON_CORNER_MM = 1e-9
 
@@ -146,3 +148,39 @@ def project(points: np.ndarray, outline: list) -> Projection:
     curvature = np.where(corner, sign / np.maximum(best, 1e-300), out["curvature"])
     return Projection(s=out["s"], distance=sign * best, normal=normal, tangent=out["tangent"],
                       corner=corner, curvature=curvature)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def deepest_on_way(start: np.ndarray, end: np.ndarray, outline: list, offset: np.ndarray | float = 0.0) -> np.ndarray:
+    """How deep inside ``outline`` each straight way from ``start`` to ``end`` ((n, 2), mm) goes: (n,) mm, 0 outside.
+
+    The way is cut where it crosses the outline's polygon (:func:`_polygon`); each piece is sampled at
+    WAY_SAMPLES points strictly inside it, projected, and the deepest kept. A way into or through a wall of
+    thickness h, straight or slanted, goes min(L, h / 2) deep, L how far it enters, found to within
+    h / (2 (WAY_SAMPLES + 1)): a point carried past the wall's mid-plane, or through it, is seen however shallow it
+    reads where it ends (measured from the far face). ``offset``: each point's reference distance, subtracted
+    from its distances (:class:`~suture_fem.physics.effects.cone_contact.ConeContact`'s phi0).
+    """
+    start = np.asarray(start, dtype=float).reshape(-1, 2)
+    way = np.asarray(end, dtype=float).reshape(-1, 2) - start
+    if len(start) == 0:
+        return np.zeros(0)
+    poly = _prepared(_key(outline))[1]
+    edge = np.roll(poly, -1, axis=0) - poly
+    denom = _cross(way[:, None, :], edge[None, :, :])  # start + t way = poly_j + s edge_j where these cross
+    rel = poly[None, :, :] - start[:, None, :]
+    safe = np.where(denom == 0.0, 1.0, denom)
+    t, s = _cross(rel, edge[None, :, :]) / safe, _cross(rel, way[:, None, :]) / safe
+    cut = np.where((denom != 0.0) & (t > 0.0) & (t < 1.0) & (s >= 0.0) & (s < 1.0), t, 1.0)
+    most = int(np.max(np.count_nonzero(cut < 1.0, axis=1)))  # the most crossings of one way
+    ends = np.concatenate([np.zeros((len(start), 1)), np.sort(cut, axis=1)[:, :most], np.ones((len(start), 1))],
+                          axis=1)
+    fractions = np.arange(1, WAY_SAMPLES + 1) / (WAY_SAMPLES + 1)
+    at = (ends[:, :-1, None] + fractions[None, None, :] * np.diff(ends, axis=1)[:, :, None]).reshape(len(start), -1)
+    points = start[:, None, :] + at[:, :, None] * way[:, None, :]
+    distance = project(points.reshape(-1, 2), outline).distance.reshape(at.shape)
+    depth = -(distance - np.broadcast_to(np.asarray(offset, dtype=float), (len(start),))[:, None])
+    return np.maximum(np.max(depth, axis=1), 0.0)

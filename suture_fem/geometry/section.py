@@ -53,8 +53,9 @@ class Cone:
         sharp (rounding it would put cone inside the tissue's nodes there).
 
         ``to_axis``: the cone's side on the thread moved to the axis (its points at r = r_thread to r = 0): the
-        cone and the thread inside it as one body, for the search of the track's tissue (which lies on
-        r = r_thread, so the cone's own side there would let it pass with no gap at all).
+        cone and the thread inside it as one body, the contact search's outline. No tissue faces the cone's own
+        side on the thread: a track node (on r = r_thread) would pass it with no gap at all, and a node beside
+        the apex cap, squeezed toward the thread, would find it nearer than the cap's face.
         """
         pts = self.points
         if to_axis:

@@ -131,6 +131,11 @@ class DomainGuard:
             self.violation = self._too_deep()
         return self.violation is None
 
+    def anchor(self) -> None:
+        """The current state is where the next trial states start from (the cones' contact measures their ways)."""
+        if self.contact is not None:
+            self.contact.anchor()
+
     def _too_deep(self) -> Violation | None:
         """A tissue node deeper inside a cone than its search allows, the deepest (collective), else None."""
         depth, limit, where, cone = self.contact.deepest()

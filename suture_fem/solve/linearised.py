@@ -104,6 +104,7 @@ class Linearised:
         try:
             self.reduction.restrict(compat.function_vector(self.physics.state), self.x)
             self.reduction.expand(self.x)
+            self.guard.anchor()
             self._assemble_full_residual()
             self.reduction.T.multTranspose(self.b_full, rhs)
             t1 = time.perf_counter()

@@ -272,6 +272,7 @@ class NewtonSolver(Linearised):
 
     def _jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         self.jacobian_current = True  # the factorisation SNES makes next is A at this iterate
+        self.guard.anchor()  # the line search's trial states start here
         t0 = time.perf_counter()
         self._assemble_full_jacobian()
         self.A_full.ptap(self.reduction.T, A)

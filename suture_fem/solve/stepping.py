@@ -213,6 +213,7 @@ class _Stepper:
             warm_terms = [(1.0, start)]
             candidates.append(warm_terms)
         self._combine([])  # the last state under the trial's loads (a prescribed end moved to the trial's place)
+        self.newton.guard.anchor()  # every start is a way from it
         best, best_merit = [], self.newton.merit() if candidates else 0.0
         for terms in candidates:
             self._combine(terms)
@@ -383,9 +384,7 @@ class _Stepper:
         result, path = self.result, self.path
         if effects is None or not effects.contact or result.leaps >= LEAPS or self.leapt_from == self.s:
             return False
-        result.leaps += 1
-        self.leapt_from = self.s
-        self.cuts_here = 0
+        result.leaps, self.leapt_from, self.cuts_here = result.leaps + 1, self.s, 0
         self.step = min([t for t in (*path.targets, path.end) if t > self.s + self.eps]) - self.s  # the next milestone
         log.warning("the path would stop at %s; one long step (%.3g) from there", path.describe(self.s), self.step)
         return True

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from suture_fem.geometry.outline import inside, project
+from suture_fem.geometry.outline import deepest_on_way, inside, project
 
 #: The unit square, counter-clockwise: arc length 0-1 along z = 0, 1-2 along r = 1, ...
 SQUARE = [("line", ((0.0, 0.0), (1.0, 0.0))), ("line", ((1.0, 0.0), (1.0, 1.0))),
@@ -67,3 +67,25 @@ def test_a_cone_closed_to_the_axis_holds_the_track_off_its_side_on_the_thread(or
     assert p.normal[0] == pytest.approx([0.0, sign])
     ahead = project(np.array([[r_t, cone.apex_z + sign * 0.02]]), cone.rounded(0.015, r_t, to_axis=True))
     assert ahead.distance[0] == pytest.approx(0.02)  # ahead of the cap: its gap to the face
+
+
+def test_a_way_through_a_thin_wall_is_seen_half_the_wall_deep_however_it_ends():
+    """The wall guard's ways: a node carried through a wall, or past its mid-plane, reads shallow where it ends.
+
+    A wall 0.2 mm thick (1 <= r <= 1.2): straight or slanted through it, the way's deepest point is the
+    wall's middle, 0.1 mm deep (sampled exactly: the piece's middle sample); to 0.02 mm short of the far face
+    it is 0.1 mm too, found to within 0.18 / 16 mm, though the end reads 0.02 mm; along the face, or ending on
+    it, 0; into it by 0.05 mm, 0.05 mm (the end's own depth, sampled to within 0.05 / 8 mm).
+    """
+    wall = [("line", ((1.0, 0.0), (1.2, 0.0))), ("line", ((1.2, 0.0), (1.2, 5.0))),
+            ("line", ((1.2, 5.0), (1.0, 5.0))), ("line", ((1.0, 5.0), (1.0, 0.0)))]
+    start = np.array([[1.3, 2.0], [1.3, 2.0], [1.3, 2.0], [1.3, 2.0], [1.3, 1.0], [1.3, 2.0]])
+    end = np.array([[0.5, 2.0], [0.5, 3.5], [1.02, 2.0], [1.3, 4.0], [1.2, 4.0], [1.15, 2.0]])
+    depth = deepest_on_way(start, end, wall)
+    assert depth[:2] == pytest.approx([0.1, 0.1], abs=1e-12)
+    assert 0.1 - 0.18 / 16 <= depth[2] <= 0.1 + 1e-12
+    assert depth[3:5] == pytest.approx([0.0, 0.0], abs=1e-12)
+    assert 0.05 - 0.05 / 8 <= depth[5] <= 0.05 + 1e-12
+    assert project(end[2:3], wall).distance[0] == pytest.approx(-0.02)  # what the end alone reads
+    # an offset (a node starting off a rounded corner) is taken off each distance
+    assert deepest_on_way(start[:1], end[:1], wall, offset=np.array([0.01]))[0] == pytest.approx(0.11)

@@ -58,9 +58,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem.geometry import regions
-from suture_fem.geometry.outline import project
+from suture_fem.geometry.outline import deepest_on_way, project
 from suture_fem.physics.effects.cone_pairs import cone_pairs
-from suture_fem.physics.effects.contact import penalty_stiffness
+from suture_fem.physics.effects.contact import cones_augmented, penalty_stiffness
 from suture_fem.physics.effects.fixed_point import Aitken
 from suture_fem.physics.effects.friction import SlipBound
 from suture_fem.physics.effects.pattern import ConeLayout, widen
@@ -72,13 +72,12 @@ log = logging.getLogger("suture_fem")
 #: k / (k + kappa) where the tissue's local stiffness k exceeds kappa (0.96 per update measured at a
 #: single cone's apex); the factor extrapolates such a mode up to 1 / (1 - rate).
 UZAWA_OMEGA_MAX = 50.0
-#: A trial state with a tissue node deeper inside a cone than this fraction of the cone's wall is outside the
-#: admissible domain (:meth:`ConeContact.deepest`): past the wall's middle the nearest point is on its far
-#: side, and the penalty would push the node on through the wall (a hollow cone's rim tissue, ending in its
-#: cavity, 5 mm "slipped", on the paper scene with the thread tied or not). Converged states lie within the
-#: augmented Lagrangian's target (0.15 um), 200 times less than a quarter of the paper's 0.13 mm wall; a full
-#: cone is thicker, so the same limit is only more cautious there.
-DEPTH_FRACTION = 0.25
+#: A trial state with a tissue node deeper inside a cone than this fraction of its wall, or reached by a way
+#: going deeper (:meth:`ConeContact.deepest`), is outside the admissible domain: past the wall's mid-plane the
+#: nearest point is on its far side, and the penalty would push the node on through the wall. Below a half,
+#: less the ways' sampling (1/16). Converged states lie within the augmented Lagrangian's target (0.15 um); the
+#: sliding cones' pure penalty lets a pressed apex node sink 30-50 um at 2-4 N (a quarter stopped one at 1.6 N).
+DEPTH_FRACTION = 0.4
 
 
 class ConeContact(SlipBound):
@@ -109,6 +108,7 @@ class ConeContact(SlipBound):
         self.augmented, self.target = target_m is not None, float(target_m or 0.0)
         self.bilateral = model == "sliding"
         self.touch_holds, self.depth_limit = touch_holds, float(depth_m)
+        self._reach = (0.5 / DEPTH_FRACTION - 1.0) * self.depth_limit  # a shorter move cannot pass the mid-plane
         self.convexified = convexified and not self.bilateral
         self.mu = float(mu) if model == "coulomb" else 0.0
         self.slip = float(slip_m)
@@ -128,6 +128,7 @@ class ConeContact(SlipBound):
         self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
         self._state = state
         self._found: tuple[np.ndarray, dict[str, np.ndarray]] | None = None  # the last search's (input, places)
+        self._anchor = self.X.copy()  # where each node was, relative to its cone, at the trial states' start (mm)
         self._layout = ConeLayout(self.dofs, self.cone, self.cone_dofs)
         self.start()
         index_all = np.concatenate([self.dofs.ravel(), *self.cone_dofs]).astype(PETSc.IntType)
@@ -144,9 +145,9 @@ class ConeContact(SlipBound):
         or ``contact_penalty``), ``friction_coefficient``, ``friction_slip_mm``, ``contact_penetration_mm``.
         """
         section = scene.effects
-        factor = section.augmented_penalty if augmented(section) else section.contact_penalty
+        factor = section.augmented_penalty if cones_augmented(section) else section.contact_penalty
         kappa = penalty_stiffness(scene, physics.tagged.sizes.suture, factor)
-        target = section.contact_penetration_mm * regions.MM if augmented(section) else None
+        target = section.contact_penetration_mm * regions.MM if cones_augmented(section) else None
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
                       target, convexified=getattr(physics, "degree", 1) != 1, touch_holds=section.thread_track,
@@ -170,7 +171,7 @@ class ConeContact(SlipBound):
             at += len(dofs)
         y = self.X + (u - np.stack([np.zeros(self.pairs), np.asarray(t_c)[self.cone]], axis=1)) / regions.MM
         out = {"phi": np.zeros(self.pairs), "g": np.zeros(self.pairs), "n": np.zeros((self.pairs, 2)),
-               "T": np.zeros((self.pairs, 2)), "curvature": np.zeros(self.pairs), "t_c": np.asarray(t_c)}
+               "T": np.zeros((self.pairs, 2)), "curvature": np.zeros(self.pairs), "t_c": np.asarray(t_c), "y": y}
         for sel, outline in zip(self._of_cone, self.outlines):
             proj = project(y[sel], outline)
             out["phi"][sel] = (proj.distance - self.phi0[sel]) * regions.MM
@@ -182,14 +183,28 @@ class ConeContact(SlipBound):
         self._found = (values.copy(), out)
         return out
 
+    def anchor(self) -> None:
+        """Take the state now as where the next trial states start from: a Newton iterate, a step's last state."""
+        self._anchor = self.search(self._state)["y"].copy()
+
     def deepest(self) -> tuple[float, float, np.ndarray, int]:
         """The state's deepest tissue node inside a cone: (depth (m), the limit (m), its reference place (mm), cone).
 
-        All ranks' (collective); the depth is 0 with no node inside; the place and cone only past the limit.
+        A node's depth is the deepest its straight way from :meth:`anchor`'s place goes (the line search's
+        path; :func:`~suture_fem.geometry.outline.deepest_on_way`) where it moved farther than from the limit to
+        the wall's mid-plane (a shorter move from an admissible place cannot pass it), else its depth now. All
+        ranks' (collective); the depth is 0 with no node inside; the place and cone only past the limit.
         """
-        phi = self.search(self._state)["phi"]
-        k = int(np.argmin(phi)) if self.pairs else -1
-        mine = max(-float(phi[k]), 0.0) if self.pairs else 0.0
+        found = self.search(self._state)
+        inside = np.maximum(-found["phi"], 0.0)
+        moved = np.linalg.norm(found["y"] - self._anchor, axis=1) > self._reach / regions.MM
+        for sel, outline in zip(self._of_cone, self.outlines):
+            way = sel[moved[sel]]
+            if len(way):
+                on_way = deepest_on_way(self._anchor[way], found["y"][way], outline, self.phi0[way]) * regions.MM
+                inside[way] = np.maximum(inside[way], on_way)
+        k = int(np.argmax(inside)) if self.pairs else -1
+        mine = float(inside[k]) if self.pairs else 0.0
         depth = float(self.comm.allreduce(mine, op=MPI.MAX))
         if depth <= self.depth_limit:  # every trial state of a solve: one reduction, no place needed
             return depth, self.depth_limit, np.zeros(2), 0
@@ -383,11 +398,3 @@ class ConeContact(SlipBound):
         self._scatter.destroy()
         self._local.destroy()
 
-
-def augmented(section: Any) -> bool:
-    """The cones' contact of ``section`` (a scene's ``[effects]``) is an augmented Lagrangian's.
-
-    Only a unilateral one: the bilateral ("sliding") cones keep the pure penalty (their multipliers'
-    first update stopped the paper scene's ramp below 0.1 N, at one cone and at four, docs/contact.md).
-    """
-    return section.cone_contact_method == "augmented" and section.cone_interface != "sliding"

@@ -4,7 +4,10 @@
 (:func:`~suture_fem.geometry.gmsh_model.split_interfaces`): each owned tissue node on a facet tagged
 ``cone_contact``, its cone, its 2 pi r-weighted lumped area, and every cone's axial dofs on its interface,
 with each cone's outline rounded at its sharp convex corners for the search
-(:mod:`~suture_fem.physics.effects.cone_contact`).
+(:mod:`~suture_fem.physics.effects.cone_contact`) and closed to the axis: the cone and the thread inside it
+searched as one body. The cone's own side on the thread faces no tissue, yet a node squeezed toward the
+thread beside the apex cap found it nearer than the cap's face (a tied thread's sliding cone at 3 N: two cap
+nodes 20-30 um inside the cap read as slipped 5 mm round the outline, pushed toward the axis).
 
 With the thread free in its track too (``effects.thread_interface`` not tied), the tissue's nodes on the track
 (facets tagged ``track``) join the search, each against the cone that slides toward it: the nearest cone whose
@@ -80,7 +83,7 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
     dofs = np.stack([global_dofs(physics, nodes, 0), global_dofs(physics, nodes, 1)], axis=1)
     return {"nodes": nodes, "dofs": dofs, "X": xy[nodes], "cone": cone, "weight": area[nodes], "surface": own,
             "cone_dofs": cone_dofs, "corner_mm": rho,
-            "outlines": [c.rounded(rho, tagged.geometry.r_thread, to_axis=free) for c in cones]}
+            "outlines": [c.rounded(rho, tagged.geometry.r_thread, to_axis=True) for c in cones]}
 
 
 def _cone_of(xy_mm: np.ndarray, cones: list, z_end: float) -> np.ndarray:

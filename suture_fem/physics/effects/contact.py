@@ -21,6 +21,8 @@ see it.
 
 from __future__ import annotations
 
+from typing import Any
+
 import dolfinx.fem
 import ufl
 from petsc4py import PETSc
@@ -51,3 +53,12 @@ def contact_term(ctx: FormContext, kappa: float, terms: Terms) -> None:
     ur = ctx.u[0]
     closed = ufl.conditional(ufl.lt(ur, 0.0), ur, 0.0)
     terms.potential["contact:thread"] = 0.5 * stiffness * closed**2 * ctx.weight * ctx.ds(int(Facet.TRACK))
+
+
+def cones_augmented(section: Any) -> bool:
+    """The cones' contact of ``section`` (a scene's ``[effects]``) is an augmented Lagrangian's.
+
+    Only a unilateral one: the bilateral ("sliding") cones keep the pure penalty (their multipliers'
+    first update stopped the paper scene's ramp below 0.1 N, at one cone and at four, docs/contact.md).
+    """
+    return section.cone_contact_method == "augmented" and section.cone_interface != "sliding"

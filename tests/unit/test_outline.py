@@ -67,6 +67,14 @@ def test_a_cone_closed_to_the_axis_holds_the_track_off_its_side_on_the_thread(or
     assert p.normal[0] == pytest.approx([0.0, sign])
     ahead = project(np.array([[r_t, cone.apex_z + sign * 0.02]]), cone.rounded(0.015, r_t, to_axis=True))
     assert ahead.distance[0] == pytest.approx(0.02)  # ahead of the cap: its gap to the face
+    # a cap node squeezed toward the thread (the tied thread's sliding cone at 3 N: 26 um under the cap's face,
+    # 20 um off the thread): on the cone's own outline the side on the thread is nearer, and pushes it toward
+    # the axis; closed to the axis the cap's face is nearest, and pushes it back out
+    squeezed = np.array([[r_t + 0.020, cone.apex_z - sign * 0.026]])
+    own = project(squeezed, cone.rounded(0.015, r_t))
+    assert own.distance[0] == pytest.approx(-0.020) and own.normal[0] == pytest.approx([-1.0, 0.0])
+    closed = project(squeezed, cone.rounded(0.015, r_t, to_axis=True))
+    assert closed.distance[0] == pytest.approx(-0.026) and closed.normal[0] == pytest.approx([0.0, sign])
 
 
 def test_a_way_through_a_thin_wall_is_seen_half_the_wall_deep_however_it_ends():

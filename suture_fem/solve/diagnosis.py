@@ -67,7 +67,8 @@ def advice(physics: Physics, cause: StopCause) -> str:
     if effects is None or cause not in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT):
         return ""
     degree = getattr(physics, "degree", 1)
-    text = _cone_advice(effects, degree) if effects.cone_contact else ""
+    moved = getattr(physics, "control", None) is not None  # the pulled end already moved (displacement control)
+    text = _cone_advice(effects, degree, moved) if effects.cone_contact else ""
     if text:
         return text
     if effects.unilateral_thread:
@@ -78,7 +79,11 @@ def advice(physics: Physics, cause: StopCause) -> str:
             'displacement-pressure, free of locking)' + (", or use mesh.degree = 1" if degree != 1 else ""))
 
 
-def _cone_advice(effects: Any, degree: int) -> str:
+def _cone_advice(effects: Any, degree: int, moved: bool) -> str:
+    if effects.thread_track and effects.cone_interface != "sliding" and moved:
+        return ("; with nothing tied the cones alone hold the thread: the paper's four Coulomb cones stop at a moved "
+                "end of about 2.4 mm (0.29 N; one cone reaches 4 mm, 0.25 N), a limit of this model as built "
+                '(docs/contact.md: Nothing tied); effects.thread_interface = "tied" carries the pull further')
     if effects.thread_track and effects.cone_interface != "sliding":
         return ("; with nothing tied the cones alone hold the thread, and the paper's cones (apex toward the pull) "
                 "hold little (one cone at P1, the end moved 4 mm: 0.25 N with a sliding thread and Coulomb cones, "

@@ -41,3 +41,7 @@ def test_nothing_tied_is_pointed_to_the_moved_end_not_to_the_release():
     free.effects.cone_interface = "coulomb"
     text = advice(free, StopCause.INVERTED_ELEMENT)
     assert "nothing tied" in text and 'loading.control = "displacement"' in text and "release" not in text
+    moved = physics(degree=1, thread=True, cones=True)
+    moved.effects.cone_interface, moved.control = "coulomb", object()  # the end already moved
+    text = advice(moved, StopCause.INVERTED_ELEMENT)
+    assert "nothing tied" in text and "loading.control" not in text and 'thread_interface = "tied"' in text

@@ -91,7 +91,8 @@ def _cone_advice(effects: Any, degree: int, moved: bool) -> str:
                 "(docs/contact.md: Nothing tied)")
     if degree == 2:
         return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
-                "cone stops at 0.4-0.6 N, four in their first step (docs/contact.md: P2 cones)")
+                "cone stops at 0.38 N pulled to 1 N and in its first step pulled to 4 N, as four do (docs/contact.md: "
+                "P2 cones)")
     if effects.cone_interface == "sliding":
         return ""
     return ("; unilateral cones stall where the tissue releases from them (a few nodes swapping between open and "

@@ -305,13 +305,15 @@ class NewtonSolver(Linearised):
         The reason is the name of SNES's converged reason (e.g. "CONVERGED_FNORM_ABS"), or
         :data:`PETSC_ERROR`. With Coulomb friction, solves until its slip bound settles
         (:func:`~suture_fem.physics.effects.friction.settle`; iterations, domain rejections and inertia shifts
-        summed over its solves).
+        summed over its solves). ``effort`` judges the step (the stepping grows it when easy): the iterations, but
+        the largest solve's where the cones' multipliers are updated, each update a solve however short the step.
         """
-        self.outside_domain = self.inertia_shifts = 0
+        self.outside_domain = self.inertia_shifts = self.largest_solve = 0
         self.factorised = False  # no factorisation of this step's yet (the chord steps need one)
-        if not self.laws:
-            return self._solve_once()
-        return settle(self.laws, self._solve_once, self.absolute_tolerance, self._chord)
+        ok, its, reason = settle(self.laws, self._solve_once, self.absolute_tolerance, self._chord) if self.laws \
+            else self._solve_once()
+        self.effort = self.largest_solve if any(getattr(law, "augmented", False) for law in self.laws) else its
+        return ok, its, reason
 
     def _solve_once(self, loose: float = 0.0) -> tuple[bool, int, str]:
         """One SNES solve from the current state (see :meth:`solve`), stopped at |R| <= ``loose`` (N) if above atol."""
@@ -343,6 +345,7 @@ class NewtonSolver(Linearised):
             self.timings.newton_total += spent
             self.timings.linear_solve += spent - (self.timings.assembly + self.timings.guard - a0)
         reason = self.snes.getConvergedReason()
+        self.largest_solve = max(self.largest_solve, its)
         self.reduction.expand(self.x)
         finite = bool(np.all(np.isfinite(self.physics.state.x.array)))
         finite = self.physics.comm.allreduce(finite, op=MPI.LAND)

@@ -1,9 +1,9 @@
 """Adaptive stepping along the scene's load path (:mod:`suture_fem.solve.paths`), one Newton solve per step.
 
 * Adaptive load stepping. A step grows (by ``solver.grow``, up to ``solver.max_step``) when Newton converges in at most
-  ``solver.easy_iterations`` iterations, and is halved and retried from the last converged state when it fails; below
-  ``solver.min_step`` the run stops with a :class:`~suture_fem.support.errors.SolveStopped` diagnosis that names the
-  cause (:mod:`suture_fem.solve.diagnosis`).
+  ``solver.easy_iterations`` iterations (each solve, where the cones' multipliers are updated: ``NewtonSolver.effort``),
+  and is halved and retried from the last converged state when it fails; below ``solver.min_step`` the run stops
+  with a :class:`~suture_fem.support.errors.SolveStopped` diagnosis naming the cause (:mod:`~.diagnosis`).
 * Milestones. Report points (and the end) are milestones the steps land on exactly; a step that would stop short of one
   by less than :data:`MILESTONE_STRETCH` of a step goes straight to it (no 2.9 -> 3.0 N stub steps), never beyond
   ``solver.max_step``.
@@ -308,7 +308,7 @@ class _Stepper:
                 self.on_converged(path.force(s), hit, time_s=t, **self.extra)
         path.accept(s_old, s)
         self._update_tangent()
-        if its <= self.newton.options.easy_iterations:
+        if self.newton.effort <= self.newton.options.easy_iterations:
             self.step = min(self.step * path.grow, path.max_step)
         self.retried = False
         self.cuts_here = 0

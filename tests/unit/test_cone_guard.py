@@ -27,7 +27,8 @@ def _contact() -> tuple[ConeContact, PETSc.Vec]:
              "weight": np.full(n, 1e-8), "cone_dofs": [np.array([2 * n])], "corner_mm": 0.0,
              "outlines": [cone.rounded(1e-3, geometry.r_thread, to_axis=True)]}
     contact = ConeContact(MPI.COMM_SELF, state, pairs, kappa=1e10, model="frictionless", mu=0.0, slip_m=1e-6,
-                          depth_m=DEPTH_FRACTION * wall * MM)
+                          wall_m=wall * MM)
+    assert contact.depth_limit == pytest.approx(DEPTH_FRACTION * wall * MM)
     return contact, state
 
 

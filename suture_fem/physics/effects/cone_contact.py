@@ -94,7 +94,7 @@ class ConeContact(SlipBound):
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
                  slip_m: float, target_m: float | None = None, convexified: bool = False, touch_holds: bool = False,
-                 depth_m: float = math.inf):
+                 wall_m: float = math.inf):
         """``state``: the state's PETSc vector; ``pairs``: :func:`cone_pairs`'s arrays.
 
         ``target_m``: the augmented Lagrangian's largest penetration (m); None: the pure penalty.
@@ -102,13 +102,13 @@ class ConeContact(SlipBound):
         ``touch_holds``: a node that touches with no pressure (p = 0 exactly, as every node at rest) counts as
         closed: with nothing tied, only the contact holds the suture, and at rest it would hold it by nothing
         (a singular Jacobian: the first step from rest moved the suture through the tissue).
-        ``depth_m``: the deepest a tissue node may lie inside a cone in a trial state (m; :meth:`deepest`).
+        ``wall_m``: the cones' wall (m): a trial state's nodes may lie DEPTH_FRACTION of it deep (:meth:`deepest`).
         """
         self.comm, self.kappa, self.model = comm, float(kappa), model
         self.augmented, self.target = target_m is not None, float(target_m or 0.0)
         self.bilateral = model == "sliding"
-        self.touch_holds, self.depth_limit = touch_holds, float(depth_m)
-        self._reach = (0.5 / DEPTH_FRACTION - 1.0) * self.depth_limit  # a shorter move cannot pass the mid-plane
+        self.touch_holds, self.depth_limit = touch_holds, DEPTH_FRACTION * float(wall_m)
+        self._reach = 0.5 * float(wall_m) - self.depth_limit  # a shorter move from the limit cannot pass the mid-plane
         self.convexified = convexified and not self.bilateral
         self.mu = float(mu) if model == "coulomb" else 0.0
         self.slip = float(slip_m)
@@ -151,7 +151,7 @@ class ConeContact(SlipBound):
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
                       target, convexified=getattr(physics, "degree", 1) != 1, touch_holds=section.thread_track,
-                      depth_m=DEPTH_FRACTION * scene.geometry.cone_wall_mm * regions.MM)
+                      wall_m=scene.geometry.cone_wall_mm * regions.MM)
         physics.notes.setdefault("interfaces", {}).update(contact.notes())
         return contact
 

@@ -72,8 +72,9 @@ def check(scene: Scene) -> None:
                          "degree-1 rungs set it: use --mesh scene, or --degrees 2)")
     check_scene(scene)
     check_three_d(scene)
-    fits = check_fits_3d if scene.geometry.dimension == 3 else check_fits
-    log.info("mesh estimate: %s", fits(geometry, scene.mesh).describe())
+    found = check_fits_3d(geometry, scene.mesh, solver=scene.solver) if scene.geometry.dimension == 3 \
+        else check_fits(geometry, scene.mesh)
+    log.info("mesh estimate: %s", found.describe())
 
 
 def _check_axial_support(scene: Scene) -> None:

@@ -3,8 +3,11 @@
 The 3-D model (:mod:`suture_fem.geometry.gmsh_3d`) uses the 2-D background size h(r, z), revolved, and
 at most 2 pi r / ELEMENTS_PER_TURN on a curved surface of radius r (the thread's). A tetrahedron of
 size h fills about h^3 / (6 sqrt 2), so the count is about the integral of 6 sqrt(2) / h^3 over the
-half solid (dV = pi r dr dz); :data:`CALIBRATION` turns that into gmsh's count, and the memory per
-unknown was measured on the 3-D ladder (benchmarks/three_d.py).
+half solid (dV = pi r dr dz); :data:`CALIBRATION` turns that into gmsh's count. gmsh's tetrahedra grow
+away from the thread's finely divided surface more slowly than the size field allows (:data:`GRADATION`),
+which is most of a coarse mesh. The memory of a direct solve grows as the unknowns to the 4/3 (the
+fill-in of a 3-D factorisation), of a Krylov solve in proportion to them; both measured on the 3-D
+ladders (benchmarks/three_d.py, docs/three-d.md).
 """
 
 from __future__ import annotations
@@ -17,36 +20,50 @@ from suture_fem.geometry.estimate import MeshEstimate, fits, size_grid
 from suture_fem.geometry.gmsh_3d import ELEMENTS_PER_TURN
 from suture_fem.geometry.gmsh_model import MeshSizes
 from suture_fem.geometry.section import Geometry
-from suture_fem.scene.schema import MeshSection
+from suture_fem.scene.schema import MeshSection, SolverSection
 
-#: gmsh's tetrahedron count over the integral estimate: gmsh gives 51,431 and 275,510 tetrahedra on the 1-cone
-#: hollow scene at twice and once the default sizes, and 168,066 at 4 cones, twice: 0.76, 0.60, 0.76 of the integral.
-CALIBRATION = 0.7
-#: Vertices per tetrahedron of a gmsh mesh, and P2 nodes (vertices and edges) per tetrahedron.
-VERTICES_PER_CELL = 0.2
-P2_NODES_PER_CELL = 1.4
-#: Peak memory of one 3-D solve: a base plus a share per unknown. Measured (P1, MUMPS, one process,
-#: benchmarks/three_d.py): 387 MB with 30,921 dofs, 585 MB with 55,893, 723 MB with 65,652, i.e. 6.4, 7.1 and
-#: 8.1 kB per dof over the 2-D runs' 190 MB base; MUMPS' 3-D fill-in grows faster than the dofs, hence the margin.
+#: gmsh's tetrahedron count over the integral estimate. Fitted on 13 meshes (the cylinder with 1 cone at 5.66,
+#: 4, 2.83, 2, 1.41 and 1 times the [mesh] sizes, with 4 cones at 4, 2.83 and 2; the slab with 1 cone at 4 and
+#: 2.83, with 4 at 4 and 2; 13,903 to 684,545 tetrahedra): with it each count is 0.89 to 1.09 of the estimate's.
+CALIBRATION = 0.62
+#: How fast gmsh's tetrahedra grow away from the thread's surface (mm of size per mm of distance) whatever the
+#: size field allows: without this bound (and calibrated by 0.7) the estimate was 0.38 of gmsh's count at 5.66
+#: times the sizes and 1.15 of it at once the sizes (the same 13 meshes).
+GRADATION = 0.4
+#: Vertices per tetrahedron of a gmsh mesh (0.18-0.22 on those meshes), and P2 nodes (vertices and
+#: edges) per tetrahedron (1.40-1.52): the larger values, so that the estimate errs toward more.
+VERTICES_PER_CELL = 0.21
+P2_NODES_PER_CELL = 1.5
+#: Peak memory of one 3-D solve: a base plus, for a direct (MUMPS) solve, MUMPS_BYTES x unknowns^(4/3).
+#: Measured (one process, benchmarks/three_d.py, peak less the base): P1 182 MB with 30,921 dofs, 380 with
+#: 55,893, 518 with 65,652, 3,729 with 271,923; P2 546 MB with 63,375, 812 with 84,012, 1,302 with 126,939:
+#: 188-212 bytes x dofs^(4/3) (a linear law off by a factor 1.9 between the smallest and the largest).
 BASE_GIB = 0.2
-BYTES_PER_UNKNOWN = 12_000
+MUMPS_BYTES = 215.0
+#: A Krylov solve's memory per unknown (GAMG, 337 MB peak with 30,921 dofs: 4.3 kB per dof over the base).
+KRYLOV_BYTES_PER_UNKNOWN = 6_000
 
 
-def estimate_3d(geometry: Geometry, sizes: MeshSizes, degree: int) -> MeshEstimate:
-    """Estimated tetrahedra, unknowns (3 per node) and peak memory of one solve of the 3-D half model."""
+def estimate_3d(geometry: Geometry, sizes: MeshSizes, degree: int, solver: SolverSection | None = None) -> MeshEstimate:
+    """Estimated tetrahedra, unknowns (3 per node) and peak memory of one solve of the 3-D half model.
+
+    The memory is a direct solve's unless ``solver`` resolves to a Krylov method for that many unknowns.
+    """
     g = geometry
     n_r, n_z = 400, 800
     r_max = g.r_epidermis if g.slab is None else math.hypot(max(g.slab.x_skin, -g.slab.x_deep), g.slab.half_width)
     rr, zz, h = size_grid(g, sizes, n_r, n_z, r_max)
     curved = 2.0 * math.pi * g.r_thread / ELEMENTS_PER_TURN  # the thread's surface, graded like the suture size
     near = np.maximum(np.abs(rr - g.r_thread), 0.0)
-    h = np.minimum(h, curved + (sizes.far - curved) * np.minimum(near / sizes.grading, 1.0))
+    h = np.minimum(h, curved + np.minimum((sizes.far - curved) / sizes.grading, GRADATION) * near)
     inside = (zz <= g.length) | (rr <= g.r_thread)
     volume = _ring_areas(g, r_max, n_r)[:, None] * (g.z_end / n_z)
     cells = CALIBRATION * float(np.sum(inside * volume * 6.0 * math.sqrt(2.0) / h**3))
     nodes = cells * (VERTICES_PER_CELL if degree == 1 else P2_NODES_PER_CELL)
     unknowns = int(3 * nodes)
-    return MeshEstimate(int(cells), unknowns, BASE_GIB + unknowns * BYTES_PER_UNKNOWN / 2**30)
+    krylov = solver is not None and solver.method_for(3, unknowns) != "direct"
+    solve = unknowns * KRYLOV_BYTES_PER_UNKNOWN if krylov else MUMPS_BYTES * float(unknowns) ** (4.0 / 3.0)
+    return MeshEstimate(int(cells), unknowns, BASE_GIB + solve / 2**30)
 
 
 def _ring_areas(g: Geometry, r_max: float, n_r: int) -> np.ndarray:
@@ -66,7 +83,8 @@ def _ring_areas(g: Geometry, r_max: float, n_r: int) -> np.ndarray:
     return np.histogram(r, bins=n_r, range=(0.0, r_max))[0] * cell
 
 
-def check_fits_3d(geometry: Geometry, mesh: MeshSection, memory_gib: float | None = None) -> MeshEstimate:
+def check_fits_3d(geometry: Geometry, mesh: MeshSection, memory_gib: float | None = None,
+                  solver: SolverSection | None = None) -> MeshEstimate:
     """The estimate of a 3-D scene's mesh; SceneError (one line) when its solve cannot fit in memory."""
-    return fits(estimate_3d(geometry, MeshSizes.from_section(mesh), mesh.degree), mesh, memory_gib,
+    return fits(estimate_3d(geometry, MeshSizes.from_section(mesh), mesh.degree, solver), mesh, memory_gib,
                 "(mesh.size_* keys, geometry.dimension = 3)", "tetrahedra")

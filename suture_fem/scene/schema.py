@@ -104,6 +104,15 @@ class SolverSection(_Section):
     inertia_correction: bool = key(Rule("bool"))
     gent_limit_fraction: float = key(Rule("float", lo=0.0, hi=1.0, lo_open=True))
 
+    def method_for(self, dimension: int, unknowns: int) -> str:
+        """"direct", "gamg" or "hypre": ``linear_method`` with "auto" resolved.
+
+        "auto" is a Krylov method (GAMG) in 3-D from ``iterative_from_dofs`` unknowns on, else direct.
+        """
+        if self.linear_method != "auto":
+            return self.linear_method
+        return "gamg" if dimension == 3 and unknowns >= self.iterative_from_dofs else "direct"
+
 
 #: The optional outputs a scene may ask for in ``output.quantities``, in the order they are computed:
 #: declared here once (the scene checks them before anything is imported). Each is the ``option`` of

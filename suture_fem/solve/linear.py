@@ -41,11 +41,9 @@ KRYLOV_MAX_IT = 2000
 
 def method_of(options: Any, problem: Any, unknowns: int) -> str:
     """"direct", "gamg" or "hypre": ``solver.linear_method`` with "auto" resolved by dimension and size."""
-    method = getattr(options, "linear_method", "direct")
-    if method != "auto":
-        return method
-    dim = problem.W.mesh.geometry.dim
-    return "gamg" if dim == 3 and unknowns >= options.iterative_from_dofs else "direct"
+    if not hasattr(options, "method_for"):  # a problem's own options without the key: direct
+        return getattr(options, "linear_method", "direct")
+    return options.method_for(problem.W.mesh.geometry.dim, unknowns)
 
 
 def configure(options: Any, newton: Any, base: dict[str, Any]) -> str:

@@ -1,7 +1,8 @@
 """What a 3-D scene (``geometry.dimension = 3``) may call for; the rest is refused in one line before meshing.
 
 The 3-D model is the cylinder or the slab half model (:mod:`suture_fem.geometry.gmsh_3d`): the same materials, the
-tied suture-tissue interface, the pull as a force on the thread's end face, the static load ramp, and
+tied suture-tissue interface, the pull as a force on the thread's end face or its end moved (displacement control),
+the static load ramp, the field files, and
 the USUM, SEQV and EPTOEQV maxima (with the reaction, energy and end displacement) and their critical-distance
 averages over a ball (:mod:`suture_fem.outputs.ball_search`). What is built in
 2-D only is listed here with the key that asks for it.
@@ -24,8 +25,6 @@ UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
     ("effects.suture", "elastic", "the rigid suture is built in 2-D only"),
     ("effects.thread_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
     ("effects.cone_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
-    ("loading.control", "force", "displacement control is built in 2-D only"),
-    ("output.fields", False, "field files are written in 2-D only"),
 )
 
 

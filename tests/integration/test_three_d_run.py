@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from suture_fem.geometry.estimate_3d import estimate_3d
@@ -27,8 +28,15 @@ COARSE_AGREEMENT = 0.05
 
 
 @pytest.fixture(scope="module")
-def three_d(tmp_path_factory):
-    return run_inprocess("paper", COARSE_3D_CD, tmp_path_factory.mktemp("three_d"))
+def three_d_folder(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("three_d")
+    run_inprocess("paper", [*COARSE_3D_CD, "output.fields=true"], folder)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def three_d(three_d_folder):
+    return json.loads((three_d_folder / "results.json").read_text())
 
 
 @pytest.mark.slow
@@ -103,3 +111,36 @@ def test_the_mesh_command_writes_the_3d_half_model(tmp_path):
     record = json.loads(out.with_suffix(".json").read_text())
     assert record["tetrahedra"] > 0 and f"({record['tetrahedra']} tetrahedra)" in proc.stdout
     assert record["thread_track_split"] is False and "cone_surfaces_split" not in record
+
+
+@pytest.mark.slow
+def test_the_field_files_hold_the_3d_displacement_and_stress(three_d, three_d_folder):
+    import pyvista
+
+    reader = pyvista.get_reader(str(three_d_folder / "fields.xdmf"))
+    assert list(reader.time_values) == [a["force_n"] for a in three_d["at_forces"]]
+    for state in three_d["at_forces"]:
+        reader.set_active_time_value(state["force_n"])
+        blocks = reader.read()
+        u = next(b.point_data["displacement_m"] for b in blocks if "displacement_m" in b.point_data)
+        vm = next(b.cell_data["von_mises_pa"] for b in blocks if "von_mises_pa" in b.cell_data)
+        assert u.shape[1] == 3
+        # P1 tetrahedra: the written displacement is the solution at the nodes, USUM its largest norm (VTK's
+        # XDMF reader returns single precision: 6e-8 relative)
+        assert np.linalg.norm(u, axis=1).max() * 1e3 == pytest.approx(state["usum_mm"], rel=1e-6)
+        assert vm.max() == pytest.approx(max(r["seqv_pa"] for r in state["regions"].values()), rel=1e-6)
+
+
+@pytest.mark.slow
+def test_moving_the_3d_end_where_the_force_took_it_takes_that_force(three_d, tmp_path):
+    end = three_d["thread_end_displacement_mm"]
+    moved = run_inprocess("paper", [*COARSE_3D, 'loading.control="displacement"', f"loading.displacement_mm={end!r}",
+                                    "loading.report_displacements_mm=[]"], tmp_path)
+    assert moved["control"] == "displacement" and moved["status"] == "converged"
+    rec = moved["at_forces"][-1]
+    assert rec["force_n"] == pytest.approx(three_d["at_forces"][-1]["force_n"], rel=1e-6)  # the half model's reaction
+    assert moved["thread_end_displacement_mm"] == pytest.approx(end, rel=1e-12)
+    # the moved end face stays flat at d, the pulled one (a uniform traction) bulges: its largest displacement, USUM,
+    # is above its mean, the end's displacement, by 2.5e-5 mm here; the two lifts differ by less
+    assert abs(moved["usum_mm"] - three_d["usum_mm"]) < three_d["usum_mm"] - end
+    assert rec["force_balance_rel"] < 1e-6

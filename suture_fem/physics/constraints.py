@@ -152,7 +152,8 @@ def pinned_pressure(tagged: meshmod.TaggedMesh, W: Any) -> tuple[Any, dict[str, 
     mesh = tagged.mesh
     tissue_cells = meshmod.region_cells(tagged, regions.TISSUE)
     in_tissue = mark_dofs(W, tissue_cells, W.sub(1))
-    p_all = mark_dofs(W, np.arange(mesh.topology.index_map(2).size_local, dtype=np.int32), W.sub(1))
+    cells = mesh.topology.index_map(mesh.topology.dim).size_local
+    p_all = mark_dofs(W, np.arange(cells, dtype=np.int32), W.sub(1))
     pinned = np.flatnonzero(p_all & ~in_tissue).astype(np.int32)
     bc = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), pinned, W.sub(1))
     owned = W.dofmap.index_map.size_local
@@ -169,26 +170,31 @@ class RigidConstraint:
 
     Attributes:
         displacement: the Constant d (m), updated by the solver's reduction.
-        radial: u_r = 0 on the suture's dofs; axial: u_z = d on them (its dofs become RIGID).
+        radial: u_r = 0 on the suture's dofs (in 3-D: u_x = 0, and ``hoop``: u_z = 0, off the thread's axis y);
+        axial: u_z = d on them (its dofs become RIGID).
     """
 
     displacement: Any
     radial: Any
     axial: Any
+    hoop: Any = None
 
     @property
     def bcs(self) -> list[Any]:
-        """The two conditions, radial first."""
-        return [self.radial, self.axial]
+        """The conditions, the axial one last."""
+        return [self.radial, *([self.hoop] if self.hoop is not None else []), self.axial]
 
 
 def rigid_suture(tagged: meshmod.TaggedMesh, W: Any, W_u: Any) -> RigidConstraint:
     """The rigid suture's constraint on every dof of a suture cell (the interface included)."""
     displacement = dolfinx.fem.Constant(tagged.mesh, PETSc.ScalarType(0.0))
     suture_cells = meshmod.region_cells(tagged, regions.SUTURE)
-    radial, axial = (np.flatnonzero(mark_dofs(W, suture_cells, W_u.sub(c))).astype(np.int32) for c in (0, 1))
+    dim = tagged.mesh.geometry.dim
+    radial, axial, *hoop = (np.flatnonzero(mark_dofs(W, suture_cells, W_u.sub(c))).astype(np.int32)
+                            for c in (0, 1, 2)[:dim])
     return RigidConstraint(
         displacement=displacement,
         radial=dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), radial, W_u.sub(0)),
         axial=dolfinx.fem.dirichletbc(displacement, axial, W_u.sub(1)),
+        hoop=dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), hoop[0], W_u.sub(2)) if hoop else None,
     )

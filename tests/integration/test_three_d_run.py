@@ -144,3 +144,35 @@ def test_moving_the_3d_end_where_the_force_took_it_takes_that_force(three_d, tmp
     # is above its mean, the end's displacement, by 2.5e-5 mm here; the two lifts differ by less
     assert abs(moved["usum_mm"] - three_d["usum_mm"]) < three_d["usum_mm"] - end
     assert rec["force_balance_rel"] < 1e-6
+
+
+@pytest.mark.slow
+def test_gravity_in_3d_weighs_what_the_axisymmetric_model_weighs_and_balances(tmp_path):
+    heavy = ["effects.gravity=true"]
+    three = run_inprocess("paper", [*COARSE_3D, *heavy], tmp_path / "3d")
+    two = run_inprocess("paper", [*COARSE, *heavy], tmp_path / "2d")
+    weight = three["effects"]["gravity"]["weight_n"]
+    # twice the half model's tetrahedra against the exact solid of revolution of the 2-D cells: polygonal surfaces
+    assert weight == pytest.approx(two["effects"]["gravity"]["weight_n"], rel=0.01)  # measured 0.23 % apart
+    F = three["applied_force_n"]
+    assert abs(three["reaction_force_n"] + F - weight) < 1e-6 * F  # the outer surface holds the pull less the weight
+
+
+@pytest.mark.long  # about a minute of CPU: benchmarks/long_tests.py runs it
+def test_a_damped_3d_hold_settles_on_the_quasi_static_answer(three_d, tmp_path):
+    dynamic = run_inprocess("paper", [*COARSE_3D, "effects.inertia=true", "loading.ramp_s=0.02", "loading.hold_s=0.1",
+                                      "effects.time_step_s=0.004", "effects.rayleigh_mass_per_s=400",
+                                      "effects.rayleigh_stiffness_s=1e-4"], tmp_path)
+    assert dynamic["effects"]["hold"]["solved"] is True
+    assert dynamic["usum_mm"] == pytest.approx(three_d["usum_mm"], rel=0.01)  # measured -0.08 %
+
+
+@pytest.mark.slow
+def test_the_rigid_suture_in_3d_moves_as_one_and_shortens_the_pull(three_d, tmp_path):
+    rigid = run_inprocess("paper", [*COARSE_3D, 'effects.suture="rigid"'], tmp_path)
+    assert rigid["effects"]["suture"]["rigid_unknowns"] == 1  # the suture's three components replaced by one motion
+    F = rigid["applied_force_n"]
+    assert rigid["reaction_force_n"] == pytest.approx(-F, rel=1e-6)
+    # without the thread's stretch the end moves less, by about the free thread's F L / (E A)
+    assert 0.99 * three_d["thread_end_displacement_mm"] < rigid["thread_end_displacement_mm"] \
+        < three_d["thread_end_displacement_mm"]

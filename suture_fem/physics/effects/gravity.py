@@ -1,8 +1,8 @@
 """Gravity (``effects.gravity = true``): the tissue's and suture's weight as an axial body force.
 
-- int rho g s u_z dV, s = -1 for ``"-z"`` (opposite to the pull), +1 for ``"+z"``; only an axial
-direction is axisymmetric. The solver applies it quasi-statically before the pull, through a 0..1
-factor.
+- int rho g s u_z dV, s = -1 for ``"-z"`` (opposite to the pull), +1 for ``"+z"``, u_z the displacement
+along the thread; only an axial direction is axisymmetric (the 3-D models keep it). The solver applies it
+quasi-statically before the pull, through a 0..1 factor.
 """
 
 from __future__ import annotations
@@ -35,19 +35,25 @@ def weight_n(tagged: meshmod.TaggedMesh, e: EffectsSection) -> float:
     For a straight-sided triangle int r dA = A r_centroid exactly, so V = sum 2 pi A r_centroid. Quadratic
     cells (``mesh.geometry_degree = 2``) count as their vertex triangles: the slivers between the fillet
     arcs and their chords are below 1e-6 of the section's area at 8 elements per arc (0.04 mm fillets).
+    In 3-D, V is twice the half model's tetrahedra's volume.
     """
     mesh = tagged.mesh
-    n_owned = mesh.topology.index_map(2).size_local
-    geom = mesh.geometry.x[:, :2]
+    dim = mesh.topology.dim
+    n_owned = mesh.topology.index_map(dim).size_local
+    geom = mesh.geometry.x[:, :dim]
     cells = compat.geometry_dofs(mesh)
     total = 0.0
     for tag, region in REGION_OF_TAG.items():
         ids = meshmod.region_cells(tagged, tag)
         ids = ids[ids < n_owned]
         p = geom[cells[ids]]
-        a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
-        area = 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
-        total += e.density(region) * float(np.sum(2 * math.pi * area * p[:, :, 0].mean(axis=1)))
+        if dim == 3:  # the half model's tetrahedra, doubled
+            volume = 2.0 * np.abs(np.linalg.det(p[:, 1:4] - p[:, :1])) / 6.0
+        else:
+            a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+            area = 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+            volume = 2 * math.pi * area * p[:, :, 0].mean(axis=1)
+        total += e.density(region) * float(np.sum(volume))
     return mesh.comm.allreduce(total) * e.gravity_m_s2
 
 

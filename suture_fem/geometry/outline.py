@@ -184,3 +184,20 @@ def deepest_on_way(start: np.ndarray, end: np.ndarray, outline: list, offset: np
     distance = project(points.reshape(-1, 2), outline).distance.reshape(at.shape)
     depth = -(distance - np.broadcast_to(np.asarray(offset, dtype=float), (len(start),))[:, None])
     return np.maximum(np.max(depth, axis=1), 0.0)
+
+
+def meridian(xyz: np.ndarray) -> np.ndarray:
+    """Points' (r, z) in the axisymmetric section: as they are in 2-D; (sqrt(x^2 + z^2), y) in 3-D (mm)."""
+    if xyz.shape[1] == 2:
+        return xyz
+    return np.stack([np.hypot(xyz[:, 0], xyz[:, 2]), xyz[:, 1]], axis=1)
+
+
+def radial_directions(xyz: np.ndarray) -> np.ndarray:
+    """3-D: each point's unit vector (x, 0, z) / r off the thread's axis (-x on the axis itself); 2-D: (1, 0)."""
+    if xyz.shape[1] == 2:
+        return np.tile([1.0, 0.0], (len(xyz), 1))
+    e = np.stack([xyz[:, 0], np.zeros(len(xyz)), xyz[:, 2]], axis=1)
+    r = np.linalg.norm(e, axis=1)
+    e[r == 0.0] = (-1.0, 0.0, 0.0)
+    return e / np.where(r == 0.0, 1.0, r)[:, None]

@@ -16,6 +16,8 @@ With the cones and the thread both free (nothing tied), a cone also pushes the t
 moved from the thread's, so ``thread`` is what the thread itself passes (its friction).
 
 ``load_share_n`` gives each part's axial force (N); the parts sum to the pull to solver tolerance.
+In 3-D (the half model) every vector is taken in the meridian plane: its component along the node's direction
+off the thread's axis and its axial one (the hoop component left out), and the areas carry the weight 2.
 
 Tractions: dividing a node's force by its 2 pi r-weighted lumped area (the facets' integral of its
 shape function) gives the nominal traction (force per reference area; exact for a uniform traction
@@ -51,10 +53,11 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
-from suture_fem.geometry.outline import project
+from suture_fem.geometry.outline import meridian, project, radial_directions
 from suture_fem.geometry.regions import MM, Facet
 from suture_fem.outputs.base import Quantity, Setup, State
 from suture_fem.outputs.cone_gaps import SEPARATION_MM, cone_nodes, cone_record, intervals
+from suture_fem.physics import kinematics
 from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
 from suture_fem.support import compat
 
@@ -91,7 +94,10 @@ class Interface(Quantity):
         self.n_owned = V.dofmap.index_map.size_local
         nodes = np.flatnonzero(on_facets & tissue)
         self.nodes = nodes[nodes < self.n_owned]
-        xy = V.tabulate_dof_coordinates()[:, :2] / MM
+        self.dim = mesh.geometry.dim
+        xyz = V.tabulate_dof_coordinates()[:, : self.dim] / MM
+        self.radial = radial_directions(xyz)  # 3-D: each node's unit vector off the thread's axis (y), in x-z
+        xy = meridian(xyz)  # (r, z) in 2-D; (r, y) = (sqrt(x^2 + z^2), y) in 3-D
         self.xy_mm = xy[self.nodes]
         g = physics.tagged.geometry
         self.geometry = g
@@ -109,7 +115,7 @@ class Interface(Quantity):
             self.track = on_track[self.nodes]
         thread_cells = meshmod.region_cells(physics.tagged, regions.Cell.THREAD)
         thread = _node_mask(V, thread_cells)
-        surface = thread & (np.abs(xy[:, 0] - g.r_thread) < 1e-9 * max(g.z_end, 1.0))
+        surface = thread & (np.abs(xy[:, 0] - g.r_thread) < 1e-9 * max(g.z_end, 1.0))  # 3-D: the polygon's vertices
         self.thread_surface = np.flatnonzero(surface[: self.n_owned])
         self.thread_xy_mm = xy[self.thread_surface]
         self._area_normal: tuple[np.ndarray, np.ndarray] | None = None
@@ -137,7 +143,7 @@ class Interface(Quantity):
             push = physics.cone_contact.track_push(compat.function_vector(physics.state))
             shares[: len(push)] += push
             shares[-1] -= float(np.sum(push))
-        u = physics.u.x.array.reshape(-1, 2)
+        u = self._in_meridian(physics.u.x.array.reshape(-1, self.dim))
         local = {
             "xy": self.xy_mm, "force": force, "area": area[self.nodes], "normal": normal[self.nodes],
             "part": self.part, "track": self.track, "u": u[self.nodes] / MM,
@@ -181,9 +187,9 @@ class Interface(Quantity):
         values = b.array.copy()
         b.destroy()
         if physics.u_in_state is not None:  # mixed: the displacement part of the state's vector
-            owned = np.asarray(physics.u_in_state)[: 2 * self.n_owned]
+            owned = np.asarray(physics.u_in_state)[: self.dim * self.n_owned]
             values = values[owned]
-        return values[: 2 * self.n_owned].reshape(-1, 2)[self.nodes]
+        return self._in_meridian(values[: self.dim * self.n_owned].reshape(-1, self.dim))[self.nodes]
 
     def _areas_normals(self) -> tuple[np.ndarray, np.ndarray]:
         """Each owned node's 2 pi r-weighted lumped interface area (m^2) and the suture's outward unit normal there.
@@ -205,11 +211,12 @@ class Interface(Quantity):
             v = ufl.TestFunction(V)
             n = ufl.FacetNormal(mesh)
             x = ufl.SpatialCoordinate(mesh)
-            w = 2 * math.pi * x[0]
+            w = kinematics.volume_weight(x)
+            w = ufl.as_ufl(1.0) * w if isinstance(w, float) else w  # 3-D's constant weight, restricted below
             dS = ufl.Measure("dS", domain=mesh, subdomain_data=physics.tagged.facet_tags)
             ds = ufl.Measure("ds", domain=mesh, subdomain_data=physics.tagged.facet_tags)
             n_tissue = chi("+") * n("+") + chi("-") * n("-")  # the tissue's outward normal on a tied facet
-            one = ufl.as_vector([1.0, 0.0])
+            one = ufl.as_vector([1.0] + [0.0] * (self.dim - 1))
             sides = ds(int(Facet.TRACK)) + ds(int(Facet.CONE_CONTACT))  # the tissue's own boundary
             forms = (w("+") * ufl.dot(one, v("+")) * dS(int(Facet.INTERFACE)) + w * ufl.dot(one, v) * sides,
                      w("+") * ufl.dot(n_tissue, v("+")) * dS(int(Facet.INTERFACE)) + w * ufl.dot(n, v) * sides)
@@ -217,14 +224,25 @@ class Interface(Quantity):
             for form in forms:
                 b = dolfinx.fem.petsc.assemble_vector(compat.form(form))
                 b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-                out.append(b.array[: 2 * self.n_owned].reshape(-1, 2).copy())
+                out.append(b.array[: self.dim * self.n_owned].reshape(-1, self.dim).copy())
                 b.destroy()
             area = out[0][:, 0]
-            normal = -out[1]  # the suture's outward normal = minus the tissue's
+            normal = -self._in_meridian(out[1])  # the suture's outward normal = minus the tissue's
             length = np.linalg.norm(normal, axis=1)
             normal = np.divide(normal, length[:, None], out=np.zeros_like(normal), where=length[:, None] > 0)
             self._area_normal = (area, normal)
         return self._area_normal
+
+
+    def _in_meridian(self, vectors: np.ndarray) -> np.ndarray:
+        """Per local node (owned first), a vector's (radial, axial) components.
+
+        As they are in 2-D; in 3-D (v . e_r, v_y), e_r the node's direction off the thread's axis (hoop left out).
+        """
+        if self.dim == 2:
+            return vectors
+        n = len(vectors)
+        return np.stack([np.sum(vectors * self.radial[:n], axis=1), vectors[:, 1]], axis=1)
 
 
 def _near_nodes(physics: Any, nodes: np.ndarray) -> Any:
@@ -266,11 +284,6 @@ def _arc_coordinate(points: np.ndarray, outline: list) -> np.ndarray:
     return project(points, outline).s
 
 
-def _tangents(normal: np.ndarray) -> np.ndarray:
-    """The unit tangent of each normal (the normal turned by -90 degrees: (n_z, -n_r)); oriented later."""
-    return np.stack([normal[:, 1], -normal[:, 0]], axis=1)
-
-
 def _layout(m: dict[str, np.ndarray], g: Any, names: list[str]) -> dict[str, tuple[Any, ...]]:
     """What the profiles take from the mesh alone, per part: (nodes by arc length, tangents, s, r, z lists).
 
@@ -288,9 +301,13 @@ def _layout(m: dict[str, np.ndarray], g: Any, names: list[str]) -> dict[str, tup
             s = _arc_coordinate(xy, g.cones[k].outline)
         order = np.lexsort((xy[:, 1], xy[:, 0], s))  # by arc length, ties by position: the same on any partition
         sel, s = sel[order], s[order]
-        tangent = _tangents(m["normal"][sel])
+        tangent = m["normal"][sel][:, ::-1] * [1.0, -1.0]  # the normal turned by -90 degrees, (n_z, -n_r); oriented:
         if len(sel) > 1:  # orient along increasing s
-            ds_dir = np.gradient(m["xy"][sel], s, axis=0) if np.ptp(s) > 0 else tangent
+            if np.all(np.diff(s) > 0) or np.ptp(s) == 0:
+                ds_dir = np.gradient(m["xy"][sel], s, axis=0) if np.ptp(s) > 0 else tangent
+            else:  # nodes at one arc length (3-D: round the thread's axis): the outline's own direction there
+                ds_dir = np.tile([0.0, 1.0], (len(sel), 1)) if name == THREAD else \
+                    project(m["xy"][sel], g.cones[k].outline).tangent
             flip = np.sum(tangent * ds_dir, axis=1) < 0
             tangent[flip] *= -1
         out[name] = (sel, tangent, _rounded(s), _rounded(m["xy"][sel, 0]), _rounded(m["xy"][sel, 1]))

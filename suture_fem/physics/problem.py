@@ -311,10 +311,10 @@ def build_physics(tagged: meshmod.TaggedMesh, scene: Scene) -> Physics:
     return physics
 
 
-def _displacement_of(mixed: bool) -> Callable[[Any], Any]:
-    """The displacement part (u_r, u_z) of an expression in the unknown's space."""
+def _displacement_of(mixed: bool, dim: int = 2) -> Callable[[Any], Any]:
+    """The displacement part ((u_r, u_z); in 3-D (u_x, u_y, u_z)) of an expression in the unknown's space."""
     if mixed:
-        return lambda w: ufl.as_vector([w[0], w[1]])
+        return lambda w: ufl.as_vector([w[i] for i in range(dim)])
     return lambda w: w
 
 
@@ -344,10 +344,11 @@ def _context(tagged: meshmod.TaggedMesh, scene: Scene, spaces: _Spaces, degree: 
     x = ufl.SpatialCoordinate(mesh)
     dx, ds = measures(mesh, tagged.cell_tags, tagged.facet_tags, degree)
     w_eval = dynamics.evaluation_state(spaces.state) if dynamics is not None else spaces.state
-    displacement = _displacement_of(mixed)
+    dim = mesh.geometry.dim
+    displacement = _displacement_of(mixed, dim)
     return FormContext(
-        w=spaces.state, u=displacement(w_eval), p=w_eval[2] if mixed else None,
-        v=displacement(test), q=test[2] if mixed else None, test=test,
+        w=spaces.state, u=displacement(w_eval), p=w_eval[dim] if mixed else None,
+        v=displacement(test), q=test[dim] if mixed else None, test=test,
         x=x, weight=kinematics.volume_weight(x), dx=dx, ds=ds,
         materials=materials,
         region_tags=meshmod.present_regions(tagged),
@@ -373,7 +374,7 @@ def _terms(ctx: FormContext, effects: Effects, section: EffectsSection,
         gravity_factor = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
         gravity_term(ctx, section, gravity_factor, terms)
     if dynamics is not None:
-        dynamics.terms(ctx, _displacement_of(effects.mixed), effects.rigid, terms)
+        dynamics.terms(ctx, _displacement_of(effects.mixed, mesh.geometry.dim), effects.rigid, terms)
     return terms, traction, gravity_factor
 
 

@@ -1,11 +1,11 @@
 """What a 3-D scene (``geometry.dimension = 3``) may call for; the rest is refused in one line before meshing.
 
 The 3-D model is the cylinder or the slab half model (:mod:`suture_fem.geometry.gmsh_3d`): the same materials, the
-tied suture-tissue interface, the elastic or the rigid suture, gravity along the thread, the pull as a force on the
-thread's end face or its end moved (displacement control), the static load ramp or inertia's time history, the field
-files, and the USUM, SEQV and EPTOEQV maxima (with the reaction, energy and end displacement) and their
-critical-distance averages over a ball (:mod:`suture_fem.outputs.ball_search`). What is built in 2-D only is listed
-here with the key that asks for it.
+tied suture-tissue interface, the elastic or the rigid suture, the displacement or the mixed formulation, gravity
+along the thread, the pull as a force on the thread's end face or its end moved (displacement control), the static
+load ramp or inertia's time history, the field files, the load shares, and the USUM, SEQV and EPTOEQV maxima (with the
+reaction, energy and end displacement) and their critical-distance averages over a ball
+(:mod:`suture_fem.outputs.ball_search`). What is built in 2-D only is listed here with the key that asks for it.
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ from suture_fem.support.errors import SceneError
 UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
     ("geometry.cone_fillet_mm", 0.0, "rounded rims are meshed in 2-D only"),
     ("mesh.geometry_degree", 1, "quadratic cells are built in 2-D only"),
-    ("effects.incompressibility", "displacement", "the mixed u-p formulation is built in 2-D only"),
     ("effects.thread_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
     ("effects.cone_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
 )
@@ -52,7 +51,3 @@ def check_three_d(scene: Any) -> None:
         if value != wanted:
             raise SceneError(f"scene key {dotted} = {value!r} with geometry.dimension = 3: {why}; allowed in 3-D: "
                              f"{wanted!r}")
-    if "interface" in scene.output.quantities:
-        allowed = ", ".join(f'"{q}"' for q in OUTPUT_QUANTITIES if q != "interface")
-        raise SceneError('scene key output.quantities with geometry.dimension = 3: "interface" is built in 2-D only; '
-                         f"allowed in 3-D: any of {allowed}")

@@ -50,7 +50,7 @@ def scalar_space(mesh: Any, family: str, degree: int) -> Any:
 
 
 def mixed_space(mesh: Any, degree_u: int, degree_p: int) -> Any:
-    """Taylor-Hood-type space [P_k]^2 x P_{k-1} (displacement, pressure)."""
+    """Taylor-Hood-type space [P_k]^d x P_{k-1} (displacement, pressure), d the mesh's dimension."""
     import ufl
 
     if _V < (0, 7):
@@ -59,7 +59,7 @@ def mixed_space(mesh: Any, degree_u: int, degree_p: int) -> Any:
         return dolfinx.fem.FunctionSpace(mesh, ufl.MixedElement([ve, pe]))
     import basix.ufl  # pragma: no cover
 
-    ve = basix.ufl.element("Lagrange", mesh.basix_cell(), degree_u, shape=(2,))  # pragma: no cover
+    ve = basix.ufl.element("Lagrange", mesh.basix_cell(), degree_u, shape=(mesh.geometry.dim,))  # pragma: no cover
     pe = basix.ufl.element("Lagrange", mesh.basix_cell(), degree_p)  # pragma: no cover
     return dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element([ve, pe]))  # pragma: no cover
 

@@ -18,7 +18,7 @@ from tests.conftest import cli, run_inprocess, sets
 COARSE = ["geometry.cones=1", 'geometry.cone_kind="full"', "mesh.degree=1", "mesh.size_suture_mm=0.5",
           "mesh.size_rim_mm=0.25", "mesh.size_far_mm=3.0", "geometry.margin_far_mm=1.5", "geometry.margin_pull_mm=1.5",
           "loading.force_n=0.5", "loading.report_forces_n=[0.25]", "output.critical_distance_mm=0",
-          'output.quantities=["usum","seqv","eptoeqv"]']
+          'output.quantities=["usum","seqv","eptoeqv","interface"]']
 COARSE_3D = [*COARSE, "geometry.dimension=3"]
 #: The same with the critical-distance ball (the whole tissue's search only: about 1 s a report here).
 COARSE_3D_CD = [*COARSE_3D, "output.critical_distance_mm=0.1", "output.critical_distance_layers=false"]
@@ -73,6 +73,13 @@ def test_3d_agrees_with_the_axisymmetric_model(three_d, tmp_path):
     for a, b in zip(three_d["at_forces"], two_d["at_forces"]):
         for q in ("usum_mm", "thread_end_displacement_mm", "strain_energy_j"):
             assert a[q] == pytest.approx(b[q], rel=COARSE_AGREEMENT), q
+        # the load shares: the half model's interface forces (axial, in the meridian plane) sum to the whole pull,
+        # split between the cone and the thread as the axisymmetric model splits it (measured 0.9 % of the pull)
+        assert sum(a["load_share_n"].values()) == pytest.approx(a["force_n"], rel=1e-6)
+        for part, share in a["load_share_n"].items():
+            assert share > 0 and abs(share - b["load_share_n"][part]) < COARSE_AGREEMENT * a["force_n"], part
+        cone = a["interface"]["profiles"]["cone_1"]
+        assert len(cone["s_mm"]) == len(cone["pressure_pa"]) > len(b["interface"]["profiles"]["cone_1"]["s_mm"])
 
 
 @pytest.mark.slow
@@ -176,3 +183,13 @@ def test_the_rigid_suture_in_3d_moves_as_one_and_shortens_the_pull(three_d, tmp_
     # without the thread's stretch the end moves less, by about the free thread's F L / (E A)
     assert 0.99 * three_d["thread_end_displacement_mm"] < rigid["thread_end_displacement_mm"] \
         < three_d["thread_end_displacement_mm"]
+
+
+@pytest.mark.long  # about ten minutes of CPU (P2 tetrahedra, 69,000 unknowns): benchmarks/long_tests.py runs it
+def test_the_mixed_formulation_in_3d_agrees_with_the_axisymmetric_one(tmp_path):
+    mixed = ["mesh.degree=2", 'effects.incompressibility="mixed"']
+    three = run_inprocess("paper", [*COARSE_3D, *mixed], tmp_path / "3d")
+    two = run_inprocess("paper", [*COARSE, *mixed], tmp_path / "2d")
+    assert three["status"] == "converged" and three["at_forces"][-1]["force_balance_rel"] < 1e-6
+    for q in ("usum_mm", "strain_energy_j"):  # measured 0.11 % and 1.3 % apart
+        assert three[q] == pytest.approx(two[q], rel=COARSE_AGREEMENT), q

@@ -83,7 +83,7 @@ def _cone_advice(effects: Any, degree: int, moved: bool) -> str:
     if effects.thread_track and effects.cone_interface != "sliding":  # nothing tied
         if moved:  # the end moved already: what is known of this model's reach
             return ("; with nothing tied the cones alone hold the thread: the paper's four Coulomb cones stop at a "
-                    "moved end of about 2.4 mm (0.29 N; one cone reaches 4 mm, 0.25 N), a limit of this model as built "
+                    "moved end of about 3.2 mm (0.57 N; one cone reaches 4 mm, 0.25 N), a limit of this model as built "
                     '(docs/contact.md: Nothing tied); effects.thread_interface = "tied" carries the pull further')
         return ("; with nothing tied the cones alone hold the thread, and the paper's cones (apex toward the pull) "
                 "hold little (one cone at P1, the end moved 4 mm: 0.25 N with a sliding thread and Coulomb cones, "

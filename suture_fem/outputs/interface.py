@@ -233,7 +233,6 @@ class Interface(Quantity):
             self._area_normal = (area, normal)
         return self._area_normal
 
-
     def _in_meridian(self, vectors: np.ndarray) -> np.ndarray:
         """Per local node (owned first), a vector's (radial, axial) components.
 

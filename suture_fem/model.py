@@ -191,6 +191,12 @@ class Model:
         steps.finished(history)
         return steps.results
 
+    def close(self) -> None:
+        """Free the Newton solver (its matrices, factorisation and PETSc options); a later solve builds it again."""
+        if self._newton is not None:
+            self._newton.destroy()
+            self._newton = None
+
     def _previous_states(self, start: str) -> Callable[[float], Any] | None:
         """The warm start of ``solve(start=...)``: the last solve's state at a reported force, or None."""
         if start not in ("rest", "previous"):

@@ -208,6 +208,8 @@ def _run_locked(args: argparse.Namespace, scene: Any, comm: Any, out: Path) -> i
             if comm.rank == 0:
                 pictures.draw(read_json(out / "results.json"), name)
         raise
+    finally:
+        model.close()  # the solver's matrices and options (the model's state stays for the pictures)
     if pictures is not None:
         pictures.capture(model)
     del model  # its mesh and forms are not needed past here (the error estimate builds its own)

@@ -64,6 +64,7 @@ from suture_fem.solve.reduction import Discrete, Reduction
 from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale, stall_iterations
 from suture_fem.support import compat, signals
 from suture_fem.support.errors import Interrupted
+from suture_fem.support.options import forget_options, forget_when_collected
 
 log = logging.getLogger("suture_fem")
 
@@ -122,6 +123,7 @@ class NewtonSolver(Linearised):
                                stall_iterations(problem))
         self.snes = PETSc.SNES().create(problem.comm)
         self.prefix = f"suture_{id(self)}_"
+        forget_when_collected(self, self.prefix)  # PETSc 3.18's options database holds 512 entries
         self._configure()
 
     @classmethod
@@ -386,9 +388,7 @@ class NewtonSolver(Linearised):
     def destroy(self) -> None:
         """Free SNES, its options and every PETSc object of this solver."""
         self.snes.destroy()
-        opts = PETSc.Options()  # a later solver in this process (a sweep) may reuse the prefix: leave nothing
-        for key in [k for k in opts.getAll() if k.startswith(self.prefix)]:
-            opts.delValue(key)
+        forget_options(self.prefix)  # a later solver in this process (a sweep) may reuse the prefix: leave nothing
         for obj in (self.A, self.A_full, self.b, self.b_full, self.x, self._work, self._scaled):
             if obj is not None:
                 obj.destroy()

@@ -127,3 +127,26 @@ def test_a_warm_start_from_the_previous_answer_takes_fewer_iterations_to_the_sam
         model.solve(start="warm")
     model.set({"materials.tissue_scale": 1.0})
     close(model.solve().to_dict(), first, rel=0.0)  # from rest again by default: the same bits as before
+
+
+def test_a_closed_or_dropped_model_leaves_no_petsc_options_behind():
+    # Debian 12's PETSc holds 512 options: the test suite's in-process runs once filled it (11 per solver)
+    import gc
+
+    from petsc4py import PETSc
+
+    def count():
+        gc.collect()
+        return len(PETSc.Options().getAll())
+
+    before = count()
+    closed = Model(BASE)
+    closed.solve()
+    assert len(PETSc.Options().getAll()) > before  # the solver's own, while the model may solve again
+    closed.close()
+    assert len(PETSc.Options().getAll()) == before
+    assert closed.solve()["usum_mm"] > 0  # a closed model builds its solver again
+    dropped = Model(BASE)
+    dropped.solve()
+    del closed, dropped
+    assert count() == before

@@ -101,13 +101,13 @@ class ConeContact(SlipBound):
         ``convexified``: the unilateral Jacobian leaves out the distance's curvature where it softens (P2).
         ``touch_holds``: a node that touches with no pressure (p = 0 exactly, as every node at rest) counts as
         closed: with nothing tied, only the contact holds the suture, and at rest it would hold it by nothing
-        (a singular Jacobian: the first step from rest moved the suture through the tissue).
+        (a singular Jacobian: the first step from rest moved the suture through the tissue). Also when convexified.
         ``wall_m``: the cones' wall (m): a trial state's nodes may lie DEPTH_FRACTION of it deep (:meth:`deepest`).
         """
         self.comm, self.kappa, self.model = comm, float(kappa), model
         self.augmented, self.target = target_m is not None, float(target_m or 0.0)
         self.bilateral = model == "sliding"
-        self.touch_holds, self.depth_limit = touch_holds, DEPTH_FRACTION * float(wall_m)
+        self.touch_holds, self.depth_limit = touch_holds or convexified, DEPTH_FRACTION * float(wall_m)
         self._reach = 0.5 * float(wall_m) - self.depth_limit  # a shorter move from the limit cannot pass the mid-plane
         self.convexified = convexified and not self.bilateral
         self.mu = float(mu) if model == "coulomb" else 0.0

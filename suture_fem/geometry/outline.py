@@ -197,9 +197,7 @@ def meridian(xyz: np.ndarray) -> np.ndarray:
 
 
 def radial_directions(xyz: np.ndarray) -> np.ndarray:
-    """3-D: each point's unit vector (x, 0, z) / r off the thread's axis (-x on the axis itself); 2-D: (1, 0)."""
-    if xyz.shape[1] == 2:
-        return np.tile([1.0, 0.0], (len(xyz), 1))
+    """Each 3-D point's unit vector (x, 0, z) / r off the thread's axis, y (-x on the axis itself)."""
     e = np.stack([xyz[:, 0], np.zeros(len(xyz)), xyz[:, 2]], axis=1)
     r = np.linalg.norm(e, axis=1)
     e[r == 0.0] = (-1.0, 0.0, 0.0)

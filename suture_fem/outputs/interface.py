@@ -96,7 +96,7 @@ class Interface(Quantity):
         self.nodes = nodes[nodes < self.n_owned]
         self.dim = mesh.geometry.dim
         xyz = V.tabulate_dof_coordinates()[:, : self.dim] / MM
-        self.radial = radial_directions(xyz)  # 3-D: each node's unit vector off the thread's axis (y), in x-z
+        self.radial = radial_directions(xyz) if self.dim == 3 else None  # off the thread's axis (y), in x-z
         xy = meridian(xyz)  # (r, z) in 2-D; (r, y) = (sqrt(x^2 + z^2), y) in 3-D
         self.xy_mm = xy[self.nodes]
         g = physics.tagged.geometry

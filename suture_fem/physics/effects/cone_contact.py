@@ -101,13 +101,13 @@ class ConeContact(SlipBound):
         ``convexified``: the unilateral Jacobian leaves out the distance's curvature where it softens (P2).
         ``touch_holds``: a node that touches with no pressure (p = 0 exactly, as every node at rest) counts as
         closed: with nothing tied, only the contact holds the suture, and at rest it would hold it by nothing
-        (a singular Jacobian: the first step from rest moved the suture through the tissue). Also when convexified.
+        (a singular Jacobian: the first step from rest moved the suture through the tissue); at P2 too (:meth:`on`).
         ``wall_m``: the cones' wall (m): a trial state's nodes may lie DEPTH_FRACTION of it deep (:meth:`deepest`).
         """
         self.comm, self.kappa, self.model = comm, float(kappa), model
         self.augmented, self.target = target_m is not None, float(target_m or 0.0)
         self.bilateral = model == "sliding"
-        self.touch_holds, self.depth_limit = touch_holds or convexified, DEPTH_FRACTION * float(wall_m)
+        self.touch_holds, self.depth_limit = touch_holds, DEPTH_FRACTION * float(wall_m)
         self._reach = 0.5 * float(wall_m) - self.depth_limit  # a shorter move from the limit cannot pass the mid-plane
         self.convexified = convexified and not self.bilateral
         self.mu = float(mu) if model == "coulomb" else 0.0
@@ -141,16 +141,16 @@ class ConeContact(SlipBound):
     def on(cls, physics: Any, scene: Any) -> ConeContact:
         """The cones' contact of a built Physics (its cone surfaces split); its numbers join the record.
 
-        From the scene's ``[effects]``: ``cone_interface``, ``cone_contact_method`` (the penalty: ``augmented_penalty``
-        or ``contact_penalty``), ``friction_coefficient``, ``friction_slip_mm``, ``contact_penetration_mm``.
+        From the scene's ``[effects]``: ``cone_interface``, ``cone_contact_method`` and its penalty, friction, target.
         """
         section = scene.effects
         factor = section.augmented_penalty if cones_augmented(section) else section.contact_penalty
         kappa = penalty_stiffness(scene, physics.tagged.sizes.suture, factor)
         target = section.contact_penetration_mm * regions.MM if cones_augmented(section) else None
+        p2 = getattr(physics, "degree", 1) != 1  # also held at rest: P2 cones failed their first step without it
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
-                      target, convexified=getattr(physics, "degree", 1) != 1, touch_holds=section.thread_track,
+                      target, convexified=p2, touch_holds=section.thread_track or p2,
                       wall_m=scene.geometry.cone_wall_mm * regions.MM)
         physics.notes.setdefault("interfaces", {}).update(contact.notes())
         return contact

@@ -105,3 +105,59 @@ def test_a_fixed_point_that_does_not_settle_fails_the_step_after_its_solves():
     law.update = lambda tolerance: False  # never holds
     ok, _, reason = settle([law], model.solve_once, lambda: TOL, None)
     assert not ok and reason == fixed_point.NOT_SETTLED and model.solves == fixed_point.FIXED_POINT_SOLVES + 1
+
+
+class Multiplier:
+    """An augmented Lagrangian's part of ConeContact (mu 0): x <= 0 held by p = <lambda + kappa x>, lambda -> p."""
+
+    augmented, mu, KAPPA, TARGET = True, 0.0, 20.0, 1e-10
+
+    def __init__(self, model):
+        self.comm, self.model = Comm(), model
+        self.multiplier = np.array([0.5 * F])  # a previous step's, short of this one's (F)
+        self.last_residual = self.last_change = math.inf
+
+    def start(self):
+        self._aitken = fixed_point.Aitken(self.comm, 1.0)  # plain Uzawa: contracts by k / (k + kappa) an update
+
+    def update(self, tolerance):
+        x = self.model.x
+        p = np.maximum(self.multiplier + self.KAPPA * x, 0.0)
+        r, old = p - self.multiplier, self.multiplier
+        if abs(x) > self.TARGET:
+            self.multiplier = np.maximum(old + self._aitken.factor(r) * r, 0.0)
+        self.last_residual = float(np.linalg.norm(r))
+        self.last_change = float(np.linalg.norm(self.multiplier - old) / np.linalg.norm(self.multiplier))
+        return abs(x) <= self.TARGET
+
+
+class Pressed(Model):
+    """The state under the pull and the multiplier's law: k x + <lambda + kappa x> = f (pressed)."""
+
+    def residual(self):
+        return K * self.x - F + max(self.law.multiplier[0] + self.law.KAPPA * self.x, 0.0)
+
+    def solve_once(self, loose=0.0):
+        self.solves += 1
+        self.looser.append(loose)
+        self.x = (F - self.law.multiplier[0]) / (K + self.law.KAPPA)
+        return True, 3, "CONVERGED_FNORM_ABS"
+
+    def chord(self):
+        self.chords += 1
+        self.x -= self.residual() / (1.1 * (K + self.law.KAPPA))
+        return True
+
+
+def test_an_augmented_lagrangians_multipliers_are_followed_by_chord_steps_and_a_full_solve_ends():
+    runs = {}
+    for chord in (False, True):
+        model = Pressed()
+        model.law = law = Multiplier(model)
+        ok, its, _ = settle([law], model.solve_once, lambda: TOL, model.chord if chord else None)
+        runs[chord] = (model, law, ok, its)
+    (plain, _, ok_plain, its_plain), (fast, law, ok, its) = runs[False], runs[True]
+    assert ok and ok_plain and abs(fast.x) <= law.TARGET and abs(plain.x) <= law.TARGET
+    assert fast.chords >= 2 and fast.solves < plain.solves and its < its_plain
+    assert fast.looser == [0.0] * fast.solves  # no Coulomb law: every solve full, the first one too
+    assert abs(fast.x - (F - law.multiplier[0]) / (K + law.KAPPA)) < 1e-15  # the answer is a full solve's

@@ -36,9 +36,9 @@ left out). A node's terms couple its two dofs with the axial dofs of its cone's 
 The unilateral models default to an augmented Lagrangian (``effects.cone_contact_method``; Wriggers 2006,
 section 6.3): 1/2 kappa <-phi>^2 becomes (<lambda - kappa phi>^2 - lambda^2) / (2 kappa), so
 p = <lambda - kappa phi>, with the multiplier lambda frozen during a Newton solve and moved toward p
-between solves (:meth:`ConeContact.update`, Aitken-relaxed) until every pressed node is within
-``effects.contact_penetration_mm`` of its cone. The Hessian is then kappa w n n^T where pressed minus
-w p d2 phi; with lambda = 0 it is the penalty's.
+between solves (:meth:`ConeContact.update`, Aitken-relaxed; the state follows an update by a chord step where
+:func:`~.fixed_point.settle` allows) until every pressed node is within ``effects.contact_penetration_mm``
+of its cone. The Hessian is then kappa w n n^T where pressed minus w p d2 phi; with lambda = 0 the penalty's.
 
 Left out: the cone's own deformation in the search (a cone passes at most 0.8 N in the runs of
 docs/contact.md: its wall's axial strain stays below 0.2 %, a few um over the cone; the peak contact
@@ -61,7 +61,7 @@ from suture_fem.geometry import regions
 from suture_fem.geometry.outline import deepest_on_way, project
 from suture_fem.physics.effects.cone_pairs import cone_pairs
 from suture_fem.physics.effects.contact import cones_augmented, penalty_stiffness
-from suture_fem.physics.effects.fixed_point import Aitken
+from suture_fem.physics.effects.fixed_point import Aitken, update_norms
 from suture_fem.physics.effects.friction import SlipBound
 from suture_fem.physics.effects.pattern import ConeLayout, widen
 from suture_fem.support import compat
@@ -110,8 +110,7 @@ class ConeContact(SlipBound):
         self.touch_holds, self.depth_limit = touch_holds, DEPTH_FRACTION * float(wall_m)
         self._reach = 0.5 * float(wall_m) - self.depth_limit  # a shorter move from the limit cannot pass the mid-plane
         self.convexified = convexified and not self.bilateral
-        self.mu = float(mu) if model == "coulomb" else 0.0
-        self.slip = float(slip_m)
+        self.mu, self.slip = (float(mu) if model == "coulomb" else 0.0), float(slip_m)
         self.nodes, self.dofs, self.X = pairs["nodes"], pairs["dofs"], pairs["X"]
         self.cone, self.weight, self.outlines = pairs["cone"], pairs["weight"], pairs["outlines"]
         self.cone_dofs: list[np.ndarray] = pairs["cone_dofs"]
@@ -227,10 +226,8 @@ class ConeContact(SlipBound):
     def update(self, tolerance: float) -> bool:
         """Between Newton solves: the Coulomb bound (:meth:`SlipBound.update`), then the multipliers (collective).
 
-        True when both held before the update: the friction to ``tolerance`` (N), and every pressed node
-        within the target of the cone's surface, either side. The multipliers move to the
-        pressure now only when the penetration is above the target, so a settled state is the solution
-        of the terms it was solved with.
+        True when both held before the update: the friction to ``tolerance`` (N), every pressed node within the
+        target of its cone, either side (the multipliers move only above it: a settled state solves its terms).
         """
         settled = super().update(tolerance) if self.mu > 0.0 else True
         if not self.augmented:
@@ -241,11 +238,14 @@ class ConeContact(SlipBound):
         worst = float(self.comm.allreduce(float(np.max(depth, initial=0.0)), op=MPI.MAX))
         log.debug("cones' contact: %d nodes pressed, the farthest %.3g mm off its cone (target %.3g mm)",
                   self.comm.allreduce(int(np.count_nonzero(closed))), worst / regions.MM, self.target / regions.MM)
-        if worst <= self.target:
-            return settled
-        r = p - self.multiplier  # Uzawa's update moves lambda to p; Aitken's factor speeds its slow modes up
-        self.multiplier = np.maximum(self.multiplier + self._uzawa.factor(r * self.weight) * r, 0.0)  # unilateral
-        return False
+        r, old = p - self.multiplier, self.multiplier  # Uzawa moves lambda to p; Aitken's factor speeds it up
+        if worst > self.target:
+            self.multiplier = np.maximum(old + self._uzawa.factor(r * self.weight) * r, 0.0)  # unilateral
+        if self.mu == 0.0:  # what decides a chord step next (:func:`~.fixed_point.settle`; with Coulomb, its bound's)
+            self.last_residual, self.last_change = update_norms(self.comm, self.weight * r,
+                                                            self.weight * (self.multiplier - old),
+                                                            self.weight * self.multiplier)
+        return settled and worst <= self.target
 
     def start(self) -> None:
         """Forget the fixed points' histories (a new load step's solve)."""

@@ -9,7 +9,9 @@ cheap where the state follows them by chord steps (the last factorisation, one r
 back-substitution: the bound's change barely moves the Jacobian) instead of Newton solves of their own,
 and the first solve need not be exact either (it stops at :data:`FORCING` of the law's residual); a last
 full Newton solve, after which every law holds, gives the answer, as before (docs/contact.md, "A cheaper
-Coulomb").
+Coulomb"). The frictionless cones' multipliers take the same chord steps (their Jacobian depends on them only through
+the rims' curvature term) after a first full solve (an inexact one moved four cones' 2 N state to the other
+of its two equilibria, docs/contact.md "Two equilibria").
 """
 
 from __future__ import annotations
@@ -65,6 +67,16 @@ class Aitken:
         return self._omega
 
 
+def update_norms(comm: Any, forces: np.ndarray, moved: np.ndarray, now: np.ndarray) -> tuple[float, float]:
+    """An update's residual, the 2-norm of ``forces`` (N), and its change, that of ``moved`` relative to ``now``'s.
+
+    Every rank's parts (collective); the change is 0 where nothing moved, infinite from nothing.
+    """
+    squares, step, size = comm.allreduce(np.array([float(np.sum(forces * forces)), float(np.sum(moved * moved)),
+                                                   float(np.sum(now * now))]))
+    return math.sqrt(squares), (math.sqrt(step / size) if size > 0.0 else (0.0 if step == 0.0 else math.inf))
+
+
 def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, str]],
            tolerance: Callable[[], float], chord: Callable[[], bool] | None = None) -> tuple[bool, int, str]:
     """Newton solves, each law updated after each (``law.update(tolerance)``), until every law holds.
@@ -74,10 +86,11 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
 
     ``solve_once(loose)`` is one Newton solve from the current state (converged, iterations, reason), stopped
     at a residual below ``loose`` (N) where that is above its own tolerance. With a Coulomb bound the first
-    solve stops at :data:`FORCING` times the law's residual at its start, and between updates the state is
+    solve stops at :data:`FORCING` times the law's residual at its start. Between updates the state is
     moved by ``chord()`` (one step with the last factorisation; False: none taken) while each update shrinks
     the law's residual by :data:`CHORD_CONTRACTION` at least and moves the bound by at most
-    :data:`CHORD_BOUND_CHANGE` of itself (:func:`_chord_on`); the answer is always that of
+    :data:`CHORD_BOUND_CHANGE` of itself (:func:`_chord_on`; each law's ``last_residual`` and ``last_change``:
+    a Coulomb bound's, or without friction an augmented Lagrangian's multipliers'); the answer is always that of
     a last solve to the full tolerance after which the laws held. Returns the last solve's (converged, reason)
     with the Newton iterations summed; bounds that have not settled after :data:`FIXED_POINT_SOLVES` solves
     (and as many chord steps) fail the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
@@ -92,12 +105,12 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
         if not converged:
             return converged, its, reason
         held = all([law.update(tolerance()) for law in laws])  # every law updated, then judged
-        now = max((law.last_residual for law in coulomb), default=math.inf)
+        now = max((law.last_residual for law in laws), default=math.inf)
         log.debug("fixed point: %d solves (%d Newton its), %d chord steps; law residual %.2e N (tolerance %.2e N)",
                   solves, its, chords, now, tolerance())
         if held and solved and loose == 0.0:
             return converged, its, reason
-        change = max((law.last_change for law in coulomb), default=math.inf)
+        change = max((law.last_change for law in laws), default=math.inf)
         take, last = _chord_on(chord, held, now, last, change, chords), now
         if take and chord():  # type: ignore[misc]
             chords, solved = chords + 1, False

@@ -54,7 +54,7 @@ from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs
-from suture_fem.physics.effects.fixed_point import Aitken
+from suture_fem.physics.effects.fixed_point import Aitken, update_norms
 from suture_fem.physics.effects.pattern import widen
 from suture_fem.physics.forms import measures
 from suture_fem.physics.residual_memo import ResidualMemo
@@ -124,11 +124,8 @@ class SlipBound:
         omega = self._aitken.factor(r)
         old = self.bound
         self.bound = np.maximum(self.bound + omega * r / np.maximum(self.weight, 1e-300), 0.0)
-        squares, moved, size = self.comm.allreduce(np.array([
-            float(np.sum(r * r)), float(np.sum((self.weight * (self.bound - old)) ** 2)),
-            float(np.sum((self.weight * self.bound) ** 2))]))
-        self.last_residual = math.sqrt(squares)
-        self.last_change = math.sqrt(moved / size) if size > 0.0 else (0.0 if moved == 0.0 else math.inf)
+        self.last_residual, self.last_change = update_norms(self.comm, r, self.weight * (self.bound - old),
+                                                        self.weight * self.bound)
         return self.last_residual
 
 

@@ -15,12 +15,11 @@ from typing import Any
 from suture_fem.scene.schema import OUTPUT_QUANTITIES, SLAB_QUANTITIES
 from suture_fem.support.errors import SceneError
 
-#: (scene key, the value a 3-D scene must have, what it would ask for). Each is refused in 3-D.
+#: (scene key, the values a 3-D scene may have, what the others would ask for). Each other value is refused in 3-D.
 UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
-    ("geometry.cone_fillet_mm", 0.0, "rounded rims are meshed in 2-D only"),
-    ("mesh.geometry_degree", 1, "quadratic cells are built in 2-D only"),
-    ("effects.thread_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
-    ("effects.cone_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
+    ("mesh.geometry_degree", (1,), "quadratic cells are built in 2-D only"),
+    ("effects.thread_interface", ("tied", "frictionless"), "the sliding and Coulomb threads are built in 2-D only"),
+    ("effects.cone_interface", ("tied",), "the cones' sliding and contact interfaces are built in 2-D only"),
 )
 
 
@@ -48,6 +47,7 @@ def check_three_d(scene: Any) -> None:
         return
     for dotted, wanted, why in UNSUPPORTED:
         value = _value(scene, dotted)
-        if value != wanted:
+        if value not in wanted:
+            allowed = " or ".join(repr(w) for w in wanted)
             raise SceneError(f"scene key {dotted} = {value!r} with geometry.dimension = 3: {why}; allowed in 3-D: "
-                             f"{wanted!r}")
+                             f"{allowed}")

@@ -170,9 +170,15 @@ def thread_track_3d(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, np.ndarr
     for c in (0, 2):
         sub = W_u.sub(c)
         collapsed, to_parent = sub.collapse()
-        pair = dolfinx.fem.locate_dofs_topological((sub, collapsed), fdim, track)
-        dofs.append(np.asarray(pair[0], dtype=np.int32))
-        xyz.append(collapsed.tabulate_dof_coordinates()[np.asarray(pair[1])])
+        # a Dirichlet condition's dofs: every rank's, an owned node's facets may all lie on another rank
+        found = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), dolfinx.fem.locate_dofs_topological(sub, fdim, track),
+                                        sub).dof_indices()[0]
+        to_parent = np.asarray(to_parent)
+        inverse = np.full(max(int(to_parent.max()), int(np.max(found, initial=0))) + 1, -1, dtype=np.int64)
+        inverse[to_parent] = np.arange(len(to_parent))
+        order = np.argsort(inverse[found])  # by node: the collapsed components' dofs are numbered alike
+        dofs.append(np.asarray(found, dtype=np.int32)[order])
+        xyz.append(collapsed.tabulate_dof_coordinates()[inverse[found][order]])
     if len(dofs[0]) != len(dofs[1]) or not np.allclose(xyz[0], xyz[1], rtol=0.0, atol=1e-12):
         raise RuntimeError("the track's u_x and u_z dofs do not pair node by node")
     x, z = xyz[0][:, 0], xyz[0][:, 2]

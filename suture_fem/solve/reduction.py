@@ -95,8 +95,9 @@ class Reduction:
         self.T.multTranspose(ones, self.counts)
         ones.destroy()
         if n_hoop:  # a hoop column's entries are a unit vector: T^T u is the hoop component itself
-            with self.counts.localForm() as local:
-                local.array[n_free:n_free + n_hoop] = 1.0
+            start = self.counts.getOwnershipRange()[0] + n_free
+            self.counts.setValues(np.arange(start, start + n_hoop, dtype=PETSc.IntType), np.ones(n_hoop))
+            self.counts.assemble()
         self.problem = problem
         self.offset = offset
 

@@ -173,22 +173,7 @@ def split_interfaces(owner: dict[int, int], facets: dict[int, set[int]], thread:
     def remap(nodes: Any) -> np.ndarray:
         return np.array([twin.get(int(n), int(n)) for n in nodes], dtype=np.int64)
 
-    next_element = int(max(max((int(t) for t in tags), default=0) for tags in mesh.getElements()[1])) + 1
-    placed = False
-    for tag, curves in groups.items():  # the new curves: the duplicates and the tissue's side of the line elements
-        if not curves:
-            continue
-        new_curve = gmsh.model.addDiscreteEntity(fdim)
-        if not placed:  # every duplicate once, on the first new curve
-            mesh.addNodes(fdim, new_curve, [twin[n] for n in old], [c for n in old for c in xyz[n]])
-            placed = True
-        for c in curves:
-            for etype, etags, enodes in zip(*mesh.getElements(fdim, c)):
-                new_tags = list(range(next_element, next_element + len(etags)))
-                next_element += len(etags)
-                mesh.addElements(fdim, new_curve, [etype], [new_tags], [remap(enodes).tolist()])
-        gmsh.model.addPhysicalGroup(fdim, [new_curve], int(tag))
-        gmsh.model.setPhysicalName(fdim, int(tag), tag.name.lower())
+    _add_split_sides(groups, fdim, [(twin[n], xyz[n]) for n in old], remap)
     volumes = sorted(t for t, region in owner.items() if region in TISSUE)
     if dim == 3:  # the tissue's own faces first: the volumes' elements hold their nodes
         faces = sorted(f for _, f in gmsh.model.getEntities(2) if f not in set(split) and _tissue_only(owner, f))
@@ -197,6 +182,34 @@ def split_interfaces(owner: dict[int, int], facets: dict[int, set[int]], thread:
         _remap_tissue([(2, v) for v in volumes], remap)
     mesh.renumberNodes()
     return len(old)
+
+
+def _add_split_sides(groups: dict[Facet, list[int]], fdim: int, twins: list[tuple[int, list[float]]],
+                     remap: Any) -> None:
+    """One new discrete entity per split group, with the group's physical tag.
+
+    It holds the duplicates (``twins``: tag and xyz; all of them on the first entity) and the tissue's side of the
+    group's facet elements, rewritten on them.
+    """
+    import gmsh
+
+    mesh = gmsh.model.mesh
+    next_element = int(max(max((int(t) for t in tags), default=0) for tags in mesh.getElements()[1])) + 1
+    placed = False
+    for tag, curves in groups.items():
+        if not curves:
+            continue
+        new_curve = gmsh.model.addDiscreteEntity(fdim)
+        if not placed:  # every duplicate once, on the first new curve
+            mesh.addNodes(fdim, new_curve, [t for t, _ in twins], [c for _, p in twins for c in p])
+            placed = True
+        for c in curves:
+            for etype, etags, enodes in zip(*mesh.getElements(fdim, c)):
+                new_tags = list(range(next_element, next_element + len(etags)))
+                next_element += len(etags)
+                mesh.addElements(fdim, new_curve, [etype], [new_tags], [remap(enodes).tolist()])
+        gmsh.model.addPhysicalGroup(fdim, [new_curve], int(tag))
+        gmsh.model.setPhysicalName(fdim, int(tag), tag.name.lower())
 
 
 def _tissue_only(owner: dict[int, int], face: int) -> bool:

@@ -20,7 +20,15 @@ from typing import Any
 
 import numpy as np
 
-from suture_fem.geometry.gmsh_model import MeshSizes, add_groups, owners, section_surfaces, suture_surfaces
+from suture_fem.geometry.gmsh_model import (
+    FILLET_GRADING,
+    MeshSizes,
+    add_groups,
+    owners,
+    section_surfaces,
+    split_interfaces,
+    suture_surfaces,
+)
 from suture_fem.geometry.regions import FACET_TAGS, SUTURE, TISSUE, Facet
 from suture_fem.geometry.section import Geometry
 from suture_fem.geometry.slab import Slab
@@ -34,10 +42,13 @@ ELEMENTS_PER_TURN = 12
 SAMPLES = 7
 
 
-def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "suture3d") -> None:
+def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "suture3d", split_thread: bool = False,
+                        split_cones: bool = False) -> None:
     """Build and mesh the 3-D half model of the cylinder, or of the slab, in the current gmsh model (one rank only).
 
     The slab (``geometry.slab``): the three layers as boxes, the suture's pieces revolved as for the cylinder.
+    ``split_thread`` gives the tissue its own nodes along the bare thread (the faces tagged ``track``),
+    ``split_cones`` on the cones' surfaces, as in 2-D (:func:`~suture_fem.geometry.gmsh_model.split_interfaces`).
     """
     import gmsh
 
@@ -60,6 +71,8 @@ def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "sutur
     _size_fields(g, sizes, faces)
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.generate(3)
+    if split_thread or split_cones:
+        split_interfaces(owner, faces, thread=split_thread, cones=split_cones, dim=3)
 
 
 def revolved(occ: Any, surface: int) -> list[tuple[int, int]]:
@@ -147,17 +160,46 @@ def classify_faces(g: Geometry, owner: dict[int, int], shape_face: ShapeFace) ->
 
 
 def rim_circles(g: Geometry) -> list[int]:
-    """The curves that are cone corners revolved: every sample at a corner's (r, y)."""
+    """The curves that are rim circles: a sharp cone corner, or either end of a fillet arc, revolved.
+
+    Every sample of such a curve lies at one (r, y) of the section: a corner's, or a fillet arc's end point's
+    (the 2-D model sizes the points within an arc's chord of a corner, which are these ends).
+    """
     import gmsh
 
     tol = 1e-6 * max(g.z_end, 1.0)
+    rims = [*g.corners, *(p for _, seg in fillet_segments(g) for p in (seg[0], seg[2]))]
     found = []
     for _, c in gmsh.model.getEntities(1):
         r0, r1, y0, y1, _ = extent(1, c)
         if any(abs(r0 - rc) < tol and abs(r1 - rc) < tol and abs(y0 - zc) < tol and abs(y1 - zc) < tol
-               for rc, zc in g.corners):
+               for rc, zc in rims):
             found.append(c)
     return found
+
+
+def fillet_segments(g: Geometry) -> list[tuple[str, tuple]]:
+    """Every fillet arc of the cones' outlines: ("arc", (start, centre, end)) in (r, y)."""
+    return [(kind, seg) for cone in g.cones for kind, seg in cone.outline if kind == "arc"]
+
+
+def fillet_faces(g: Geometry) -> list[tuple[int, float, float]]:
+    """(face, the arc's length, its largest r; mm) of every fillet arc revolved: each sample on the arc's circle."""
+    import gmsh
+
+    tol = 1e-6 * max(g.z_end, 1.0)
+    out = []
+    for _, seg in fillet_segments(g):
+        (a, centre, b) = seg
+        radius = math.dist(a, centre)
+        angle = math.acos(max(-1.0, min(1.0, ((a[0] - centre[0]) * (b[0] - centre[0])
+                                              + (a[1] - centre[1]) * (b[1] - centre[1])) / radius**2)))
+        for _, s in gmsh.model.getEntities(2):
+            xyz = samples(2, s)
+            d = np.hypot(np.hypot(xyz[:, 0], xyz[:, 2]) - centre[0], xyz[:, 1] - centre[1])
+            if np.all(np.abs(d - radius) < tol):
+                out.append((s, radius * angle, max(a[0], b[0])))
+    return out
 
 
 def _threshold(field: Any, source: int, size_min: float, size_max: float, dist_max: float) -> int:
@@ -187,6 +229,7 @@ def _size_fields(g: Geometry, sizes: MeshSizes, faces: dict[int, set[int]]) -> N
         field.setNumbers(d_rim, "CurvesList", circles)
         compat.gmsh_set_distance_sampling(d_rim, int(min(2000, max(40, math.ceil(4.0 * g.r_hypodermis / sizes.rim)))))
         fields.append(_threshold(field, d_rim, sizes.rim, sizes.suture, 4.0 * sizes.suture))
+    fields += _fillet_fields(g, sizes)
     combined = field.add("Min")
     field.setNumbers(combined, "FieldsList", fields)
     field.setAsBackgroundMesh(combined)
@@ -194,3 +237,21 @@ def _size_fields(g: Geometry, sizes: MeshSizes, faces: dict[int, set[int]]) -> N
         gmsh.option.setNumber(option, 0)
     # the thread (r = 0.125 mm) is thinner than the suture size: its half circle still gets elements
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", ELEMENTS_PER_TURN)
+
+
+def _fillet_fields(g: Geometry, sizes: MeshSizes) -> list[int]:
+    """The 2-D fillet sizing on each revolved arc: ``sizes.fillet(length)`` on it, graded to the rim size nearby."""
+    import gmsh
+
+    field = gmsh.model.mesh.field
+    out = []
+    for face, length, r_max in fillet_faces(g):
+        h = sizes.fillet(length)
+        d = field.add("Distance")
+        compat.gmsh_distance_surfaces(d, [face])
+        # points per parametric direction: the half circle's length at half the arc's size
+        compat.gmsh_set_distance_sampling(d, int(min(1000, max(40, math.ceil(2.0 * math.pi * r_max / h)))))
+        t = _threshold(field, d, h, sizes.rim, FILLET_GRADING * sizes.rim)
+        field.setNumber(t, "StopAtDistMax", 1)  # no constraint beyond: the other fields size the rest
+        out.append(t)
+    return out

@@ -128,7 +128,7 @@ def add_groups(dim: int, owner: dict[int, int], facets: dict[int, set[int]]) -> 
 
 
 def split_interfaces(owner: dict[int, int], facets: dict[int, set[int]], thread: bool = True,
-                     cones: bool = False) -> int:
+                     cones: bool = False, dim: int = 2) -> int:
     """Give the tissue its own nodes along the bare thread (``thread``) and on the cones' surfaces (``cones``).
 
     Every mesh node on a split interface curve (end points included) is duplicated, except the nodes that
@@ -138,13 +138,18 @@ def split_interfaces(owner: dict[int, int], facets: dict[int, set[int]], thread:
     ``cone_contact`` (the cones'); their line elements are the tissue's side of the interface. A node on
     both (where a split cone meets a split thread) has one duplicate. Call after meshing (and after
     ``setOrder``). Returns the number of nodes duplicated.
+
+    ``dim`` 3: the same for the 3-D model (:mod:`suture_fem.geometry.gmsh_3d`), the interface's faces for its
+    curves, its volumes for its surfaces; the tissue's boundary faces (the symmetry plane, its end faces) are
+    rewritten on the duplicates too, so that their facet tags find the tissue's faces.
     """
     import gmsh
 
     mesh = gmsh.model.mesh
+    fdim = dim - 1
 
     def sides(curve: int) -> set[int]:
-        return {owner[s] for s in gmsh.model.getAdjacencies(1, curve)[0]}
+        return {owner[s] for s in gmsh.model.getAdjacencies(fdim, curve)[0]}
 
     interface = sorted(facets[Facet.INTERFACE])
     on_thread = [c for c in interface if Cell.THREAD in sides(c) and sides(c) & set(TISSUE)]
@@ -156,7 +161,7 @@ def split_interfaces(owner: dict[int, int], facets: dict[int, set[int]], thread:
         return 0
 
     def curve_nodes(curve: int) -> np.ndarray:
-        return np.asarray(mesh.getNodes(1, curve, includeBoundary=True)[0], dtype=np.int64)
+        return np.asarray(mesh.getNodes(fdim, curve, includeBoundary=True)[0], dtype=np.int64)
 
     keep = set(np.concatenate([curve_nodes(c) for c in tied]).tolist()) if tied else set()
     old = sorted(set(np.concatenate([curve_nodes(c) for c in split]).tolist()) - keep)
@@ -168,42 +173,76 @@ def split_interfaces(owner: dict[int, int], facets: dict[int, set[int]], thread:
     def remap(nodes: Any) -> np.ndarray:
         return np.array([twin.get(int(n), int(n)) for n in nodes], dtype=np.int64)
 
-    next_element = int(max(max((int(t) for t in tags), default=0) for tags in mesh.getElements()[1])) + 1
-    placed = False
-    for tag, curves in groups.items():  # the new curves: the duplicates and the tissue's side of the line elements
-        if not curves:
-            continue
-        new_curve = gmsh.model.addDiscreteEntity(1)
-        if not placed:  # every duplicate once, on the first new curve
-            mesh.addNodes(1, new_curve, [twin[n] for n in old], [c for n in old for c in xyz[n]])
-            placed = True
-        for c in curves:
-            for etype, etags, enodes in zip(*mesh.getElements(1, c)):
-                new_tags = list(range(next_element, next_element + len(etags)))
-                next_element += len(etags)
-                mesh.addElements(1, new_curve, [etype], [new_tags], [remap(enodes).tolist()])
-        gmsh.model.addPhysicalGroup(1, [new_curve], int(tag))
-        gmsh.model.setPhysicalName(1, int(tag), tag.name.lower())
-    _remap_tissue(owner, remap)
+    _add_split_sides(groups, fdim, [(twin[n], xyz[n]) for n in old], remap)
+    volumes = sorted(t for t, region in owner.items() if region in TISSUE)
+    if dim == 3:  # the tissue's own faces first: the volumes' elements hold their nodes
+        faces = sorted(f for _, f in gmsh.model.getEntities(2) if f not in set(split) and _tissue_only(owner, f))
+        _remap_tissue([(2, f) for f in faces] + [(3, v) for v in volumes], remap)
+    else:
+        _remap_tissue([(2, v) for v in volumes], remap)
     mesh.renumberNodes()
     return len(old)
 
 
-def _remap_tissue(owner: dict[int, int], remap: Any) -> None:
-    """Every tissue surface's elements on the duplicates instead of the suture's nodes (same element tags)."""
+def _add_split_sides(groups: dict[Facet, list[int]], fdim: int, twins: list[tuple[int, list[float]]],
+                     remap: Any) -> None:
+    """One new discrete entity per split group, with the group's physical tag.
+
+    It holds the duplicates (``twins``: tag and xyz; all of them on the first entity) and the tissue's side of the
+    group's facet elements, rewritten on them.
+    """
     import gmsh
 
     mesh = gmsh.model.mesh
-    for s in sorted(t for t, region in owner.items() if region in TISSUE):
-        inner_tags, inner_xyz, _ = mesh.getNodes(2, s)
-        etypes, etags, enodes = mesh.getElements(2, s)
+    next_element = int(max(max((int(t) for t in tags), default=0) for tags in mesh.getElements()[1])) + 1
+    placed = False
+    for tag, curves in groups.items():
+        if not curves:
+            continue
+        new_curve = gmsh.model.addDiscreteEntity(fdim)
+        if not placed:  # every duplicate once, on the first new curve
+            mesh.addNodes(fdim, new_curve, [t for t, _ in twins], [c for _, p in twins for c in p])
+            placed = True
+        for c in curves:
+            for etype, etags, enodes in zip(*mesh.getElements(fdim, c)):
+                new_tags = list(range(next_element, next_element + len(etags)))
+                next_element += len(etags)
+                mesh.addElements(fdim, new_curve, [etype], [new_tags], [remap(enodes).tolist()])
+        gmsh.model.addPhysicalGroup(fdim, [new_curve], int(tag))
+        gmsh.model.setPhysicalName(fdim, int(tag), tag.name.lower())
+
+
+def _tissue_only(owner: dict[int, int], face: int) -> bool:
+    """A face of the 3-D model with tissue on every side it has (a boundary or an interface between layers)."""
+    import gmsh
+
+    up = gmsh.model.getAdjacencies(2, face)[0]
+    return len(up) > 0 and all(owner[v] in TISSUE for v in up)
+
+
+def _remap_tissue(entities: list[tuple[int, int]], remap: Any) -> None:
+    """The listed (dim, tag) entities' elements on the duplicates instead of the suture's nodes (same tags).
+
+    Every entity touching a duplicate is read first, then all of them cleared (volumes before faces) and rebuilt in
+    the listed order (their own nodes, then their elements): a face's nodes are also its volumes' nodes.
+    """
+    import gmsh
+
+    mesh = gmsh.model.mesh
+    rebuilt = []
+    for dim, s in entities:
+        inner_tags, inner_xyz, _ = mesh.getNodes(dim, s)
+        etypes, etags, enodes = mesh.getElements(dim, s)
         remapped = [remap(nodes) for nodes in enodes]
         if all(np.array_equal(a, np.asarray(b, dtype=np.int64)) for a, b in zip(remapped, enodes)):
             continue  # touches no duplicated node
-        mesh.clear([(2, s)])
-        mesh.addNodes(2, s, list(inner_tags), list(inner_xyz))
+        rebuilt.append((dim, s, inner_tags, inner_xyz, etypes, etags, remapped))
+    for dim in sorted({dim for dim, *_ in rebuilt}, reverse=True):  # gmsh keeps a face's mesh while a volume has one
+        mesh.clear([(d, s) for d, s, *_ in rebuilt if d == dim])
+    for dim, s, inner_tags, inner_xyz, etypes, etags, remapped in rebuilt:
+        mesh.addNodes(dim, s, list(inner_tags), list(inner_xyz))
         for etype, tags, nodes in zip(etypes, etags, remapped):
-            mesh.addElements(2, s, [etype], [list(tags)], [nodes.tolist()])
+            mesh.addElements(dim, s, [etype], [list(tags)], [nodes.tolist()])
 
 
 def _add_outline(occ: Any, outline: list) -> int:

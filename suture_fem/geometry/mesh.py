@@ -47,7 +47,7 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
     geometry = Geometry.from_section(geometry_section)
     sizes = MeshSizes.from_section(mesh_section)
     gdim = geometry_section.dimension
-    build, args = ((build_gmsh_model_3d, (geometry, sizes)) if gdim == 3 else
+    build, args = ((build_gmsh_model_3d, (geometry, sizes, "suture3d", split_thread, split_cones)) if gdim == 3 else
                    (build_gmsh_model, (geometry, sizes, "suture", mesh_section.geometry_degree, split_thread,
                                        split_cones)))
     if comm.rank == 0:
@@ -142,7 +142,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
     with compat.gmsh_session() as gmsh:
         try:
             if dim == 3:
-                build_gmsh_model_3d(geometry, sizes)
+                build_gmsh_model_3d(geometry, sizes, split_thread=split_thread, split_cones=split_cones)
             else:
                 build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree,
                                  split_thread=split_thread, split_cones=split_cones)
@@ -158,8 +158,8 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
         "nodes": nodes,
         "triangles" if dim == 2 else "tetrahedra": int(cells),
         "geometry_degree": 2 if GMSH_TRIANGLE6 in types else 1,
-        "thread_track_split": split_thread and dim == 2,
-        **({"cone_surfaces_split": True} if split_cones and dim == 2 else {}),
+        "thread_track_split": split_thread,
+        **({"cone_surfaces_split": True} if split_cones else {}),
         "cell_tags": CELL_TAGS,
         "facet_tags": FACET_TAGS,
         "geometry": geometry.describe(),

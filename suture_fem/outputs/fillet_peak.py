@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from suture_fem.geometry.outline import meridian
 from suture_fem.geometry.regions import MM, TISSUE_REGIONS
 from suture_fem.outputs.base import Quantity, Setup, State, global_max
 from suture_fem.outputs.eptoeqv import Eptoeqv
@@ -49,7 +50,7 @@ class FilletPeak(Quantity):
         arcs = [(seg[1], np.hypot(seg[0][0] - seg[1][0], seg[0][1] - seg[1][1]))
                 for cone in geometry.cones for kind, seg in cone.outline if kind == "arc"]
         for region in TISSUE_REGIONS:
-            xy = points.xy[region] / MM
+            xy = meridian(points.xy[region]) / MM  # (r, z); in 3-D (sqrt(x^2 + z^2), y)
             near = np.zeros(len(xy), dtype=bool)
             for (rc, zc), radius in arcs:
                 near |= np.hypot(xy[:, 0] - rc, xy[:, 1] - zc) <= ZONE_RADII * radius

@@ -16,6 +16,7 @@ import numpy as np
 from mpi4py import MPI
 
 from suture_fem.outputs.base import Quantity, State
+from suture_fem.physics.constraints import FREE
 from suture_fem.physics.effects.friction import full_residual
 
 
@@ -29,10 +30,7 @@ class Reaction(Quantity):
         n_owned = b.getLocalSize()
         owned = physics.outer_z_dofs[physics.outer_z_dofs < n_owned]
         local = float(np.sum(b.array[owned]))
-        free = np.ones(n_owned, dtype=bool)
-        for bc in physics.bcs:
-            fixed = bc.dof_indices()[0]
-            free[fixed[fixed < n_owned]] = False
+        free = physics.unknowns.kind[:n_owned] == FREE  # not held by a boundary condition, the reduction, the track
         local_sq = float(np.sum(b.array[free] ** 2))
         b.destroy()
         comm = physics.comm

@@ -92,7 +92,11 @@ def scene_constraints(tagged: meshmod.TaggedMesh, effects: Effects, spaces: Any,
         bcs.append(pin)
     if effects.thread_track:  # sliding: u_r = 0 on the tissue's side of the track
         track, notes["interfaces"] = cons.thread_track(tagged, spaces.W_u)
-        bcs += [track] if effects.sliding_thread else []
+        bcs += [track] if effects.sliding_thread and tagged.mesh.geometry.dim == 2 else []
+    hoop = None
+    if effects.sliding_thread and tagged.mesh.geometry.dim == 3:  # u . e_r = 0: the reduction's hoop motions
+        on_plane, *hoop = cons.thread_track_3d(tagged, spaces.W_u)
+        bcs.append(on_plane)
     rigid = rigid_suture(tagged, spaces.W, spaces.W_u) if effects.rigid else None
     if rigid is not None:
         # the constraint as boundary conditions, so everything that reads bcs sees which dofs are
@@ -104,6 +108,8 @@ def scene_constraints(tagged: meshmod.TaggedMesh, effects: Effects, spaces: Any,
         bcs += [] if rigid is not None else [end]
     moving = rigid.axial if rigid is not None and end is None else None
     unknowns = classify_dofs(spaces.W, bcs, rigid_bc=moving)
+    if hoop is not None:
+        unknowns.hold_to_hoop(*hoop)
     if moving is not None:
         notes["suture"] = rigid_notes(unknowns, tagged.mesh.comm)
     return Constraints(bcs=bcs, outer_z_dofs=outer_z, unknowns=unknowns,

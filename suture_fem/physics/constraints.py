@@ -24,8 +24,9 @@ from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
 from suture_fem.support import compat
 
-#: Kinds of dof in :attr:`Unknowns.kind`: solved for, fixed at 0, or moving with the rigid suture's d.
-FREE, FIXED, RIGID = 0, 1, 2
+#: Kinds of dof in :attr:`Unknowns.kind`: solved for, fixed at 0, moving with the rigid suture's d, or held to move
+#: along the hoop direction only (a 3-D sliding thread's track: :attr:`Unknowns.hoop`).
+FREE, FIXED, RIGID, HOOP = 0, 1, 2, 3
 
 
 @dataclass
@@ -39,11 +40,22 @@ class Unknowns:
     kind: np.ndarray
     n_owned: int
     rigid: bool
+    hoop: np.ndarray | None = None
+    hoop_dirs: np.ndarray | None = None
 
     def count(self, comm: Any) -> int:
-        """Global number of unknowns SNES solves for (free dofs, plus d with a rigid suture)."""
-        free = int(np.count_nonzero(self.kind[: self.n_owned] == FREE))
+        """Global number of unknowns SNES solves for (free dofs, the hoop motions, plus d with a rigid suture)."""
+        free = int(np.count_nonzero(self.kind[: self.n_owned] == FREE)) + self.count_hoop()
         return comm.allreduce(free) + (1 if self.rigid else 0)
+
+    def count_hoop(self) -> int:
+        """Local number of hoop motions (one unknown each, its node's owner's)."""
+        return 0 if self.hoop is None else int(np.count_nonzero(self.hoop[:, 0] < self.n_owned))
+
+    def hold_to_hoop(self, pairs: np.ndarray, dirs: np.ndarray) -> None:
+        """Nodes that move along (t_x, t_z) only in the x-z plane: ``pairs`` their (u_x, u_z) dofs, ``dirs`` t."""
+        self.hoop, self.hoop_dirs = pairs, dirs
+        self.kind[pairs.ravel()] = HOOP
 
     def count_rigid(self, comm: Any) -> int:
         """Global number of dofs replaced by the rigid suture's motion d."""
@@ -141,6 +153,41 @@ def thread_track(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, dict[str, i
     bc = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), dofs, W_u.sub(0))
     _, owned = bc.dof_indices()  # the dofs, owned ones first, and how many are owned
     return bc, {"track_nodes": mesh.comm.allreduce(int(owned))}
+
+
+def thread_track_3d(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, np.ndarray, np.ndarray]:
+    """A 3-D sliding thread's track: u . e_r = 0 at the tissue's nodes on it, e_r = (x, 0, z) / r off the axis y.
+
+    Returns (the condition u_x = 0 at the track's nodes on the symmetry plane z = 0, where e_r is +-x and u_z is
+    already 0; the other nodes' (u_x, u_z) dofs, one row each; their hoop directions t = (-z, x) / r). Each of
+    the latter moves along y and t only (:meth:`Unknowns.hold_to_hoop`, the solver's reduction).
+    """
+    mesh = tagged.mesh
+    fdim = mesh.topology.dim - 1
+    track = meshmod.facets(tagged, regions.Facet.TRACK)
+    xyz = []
+    dofs = []
+    for c in (0, 2):
+        sub = W_u.sub(c)
+        collapsed, to_parent = sub.collapse()
+        # a Dirichlet condition's dofs: every rank's, an owned node's facets may all lie on another rank
+        found = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), dolfinx.fem.locate_dofs_topological(sub, fdim, track),
+                                        sub).dof_indices()[0]
+        to_parent = np.asarray(to_parent)
+        inverse = np.full(max(int(to_parent.max()), int(np.max(found, initial=0))) + 1, -1, dtype=np.int64)
+        inverse[to_parent] = np.arange(len(to_parent))
+        order = np.argsort(inverse[found])  # by node: the collapsed components' dofs are numbered alike
+        dofs.append(np.asarray(found, dtype=np.int32)[order])
+        xyz.append(collapsed.tabulate_dof_coordinates()[inverse[found][order]])
+    if len(dofs[0]) != len(dofs[1]) or not np.allclose(xyz[0], xyz[1], rtol=0.0, atol=1e-12):
+        raise RuntimeError("the track's u_x and u_z dofs do not pair node by node")
+    x, z = xyz[0][:, 0], xyz[0][:, 2]
+    r = np.hypot(x, z)
+    on_plane = np.abs(z) <= 1e-9 * r
+    bc = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), dofs[0][on_plane], W_u.sub(0))
+    pairs = np.stack([dofs[0][~on_plane], dofs[1][~on_plane]], axis=1)
+    dirs = np.stack([-z[~on_plane], x[~on_plane]], axis=1) / r[~on_plane, None]
+    return bc, pairs, dirs
 
 
 def pinned_pressure(tagged: meshmod.TaggedMesh, W: Any) -> tuple[Any, dict[str, int]]:

@@ -1,11 +1,12 @@
 """What a 3-D scene (``geometry.dimension = 3``) may call for; the rest is refused in one line before meshing.
 
-The 3-D model is the cylinder or the slab half model (:mod:`suture_fem.geometry.gmsh_3d`): the same materials, the
-tied suture-tissue interface, the elastic or the rigid suture, the displacement or the mixed formulation, gravity
-along the thread, the pull as a force on the thread's end face or its end moved (displacement control), the static
-load ramp or inertia's time history, the field files, the load shares, and the USUM, SEQV and EPTOEQV maxima (with the
-reaction, energy and end displacement) and their critical-distance averages over a ball
-(:mod:`suture_fem.outputs.ball_search`). What is built in 2-D only is listed here with the key that asks for it.
+The 3-D model is the cylinder or the slab half model (:mod:`suture_fem.geometry.gmsh_3d`): the same materials, sharp
+or rounded rims, the tied cones, the tied, frictionless or sliding thread, the elastic or the rigid suture, the
+displacement or the mixed formulation, gravity along the thread, the pull as a force on the thread's end face or its
+end moved (displacement control), the static load ramp or inertia's time history, the field files, the load shares,
+and the USUM, SEQV and EPTOEQV maxima (with the reaction, energy and end displacement) and their critical-distance
+averages over a ball (:mod:`suture_fem.outputs.ball_search`). What is built in 2-D only is listed here with the key
+that asks for it.
 """
 
 from __future__ import annotations
@@ -15,12 +16,11 @@ from typing import Any
 from suture_fem.scene.schema import OUTPUT_QUANTITIES, SLAB_QUANTITIES
 from suture_fem.support.errors import SceneError
 
-#: (scene key, the value a 3-D scene must have, what it would ask for). Each is refused in 3-D.
+#: (scene key, the values a 3-D scene may have, what the others would ask for). Each other value is refused in 3-D.
 UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
-    ("geometry.cone_fillet_mm", 0.0, "rounded rims are meshed in 2-D only"),
-    ("mesh.geometry_degree", 1, "quadratic cells are built in 2-D only"),
-    ("effects.thread_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
-    ("effects.cone_interface", "tied", "sliding and contact interfaces are built in 2-D only"),
+    ("mesh.geometry_degree", (1,), "quadratic cells are built in 2-D only"),
+    ("effects.thread_interface", ("tied", "sliding", "frictionless"), "the Coulomb thread is built in 2-D only"),
+    ("effects.cone_interface", ("tied",), "the cones' sliding and contact interfaces are built in 2-D only"),
 )
 
 
@@ -48,6 +48,7 @@ def check_three_d(scene: Any) -> None:
         return
     for dotted, wanted, why in UNSUPPORTED:
         value = _value(scene, dotted)
-        if value != wanted:
+        if value not in wanted:
+            allowed = " or ".join(repr(w) for w in wanted)
             raise SceneError(f"scene key {dotted} = {value!r} with geometry.dimension = 3: {why}; allowed in 3-D: "
-                             f"{wanted!r}")
+                             f"{allowed}")

@@ -1,7 +1,9 @@
 """The reduction u = T x + g between the state's dofs and the unknowns x SNES solves for.
 
 T injects the free dofs (:data:`~suture_fem.physics.constraints.FREE`) and, with a rigid suture, copies
-the one rigid axial motion d onto every axial suture dof (RIGID); a fixed dof (FIXED) gets no column.
+the one rigid axial motion d onto every axial suture dof (RIGID); a fixed dof (FIXED) gets no column. A 3-D
+sliding thread's track node (HOOP) has one column for its x-z plane: u_x = t_x s, u_z = t_z s, t the hoop
+direction, so u . e_r = 0 there.
 The residual and Jacobian SNES sees are T^T R(T x + g) and T^T A T (PETSc PtAP), so the Dirichlet
 conditions and the rigid constraint need no special rows.
 
@@ -63,20 +65,27 @@ class Reduction:
         free = np.flatnonzero(kind == FREE)
         rigid = np.flatnonzero(kind == RIGID)
         n_free = len(free)
-        offset_col = comm.exscan(n_free) or 0
-        n_free_global = comm.allreduce(n_free)
+        n_hoop = un.count_hoop()
+        offset_col = comm.exscan(n_free + n_hoop) or 0
+        n_free_global = comm.allreduce(n_free + n_hoop)
         holds_d = un.rigid and comm.rank == comm.size - 1
         self.d_owner = comm.size - 1 if un.rigid else None
-        n_cols = n_free + (1 if holds_d else 0)
+        n_cols = n_free + n_hoop + (1 if holds_d else 0)
         self.n_global = n_free_global + (1 if un.rigid else 0)
         col = np.full(un.n_owned, -1, dtype=PETSc.IntType)
         col[free] = offset_col + np.arange(n_free)
         col[rigid] = n_free_global  # d is the last unknown
+        value = np.ones(un.n_owned)
+        if n_hoop:  # one column per hoop motion s: u_x = t_x s, u_z = t_z s
+            owned = un.hoop[:, 0] < un.n_owned
+            pairs, dirs = un.hoop[owned], un.hoop_dirs[owned]
+            col[pairs] = (offset_col + n_free + np.arange(n_hoop))[:, None]
+            value[pairs] = dirs
         has = col >= 0
         indptr = np.concatenate([[0], np.cumsum(has)]).astype(PETSc.IntType)
         self.T = PETSc.Mat().createAIJ(
             size=((un.n_owned, im.size_global * bs), (n_cols, self.n_global)),
-            csr=(indptr, col[has], np.ones(int(has.sum()))),
+            csr=(indptr, col[has], value[has]),
             comm=comm,
         )
         self.T.assemble()
@@ -85,6 +94,10 @@ class Reduction:
         ones.set(1.0)
         self.T.multTranspose(ones, self.counts)
         ones.destroy()
+        if n_hoop:  # a hoop column's entries are a unit vector: T^T u is the hoop component itself
+            start = self.counts.getOwnershipRange()[0] + n_free
+            self.counts.setValues(np.arange(start, start + n_hoop, dtype=PETSc.IntType), np.ones(n_hoop))
+            self.counts.assemble()
         self.problem = problem
         self.offset = offset
 

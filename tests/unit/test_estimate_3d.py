@@ -39,8 +39,9 @@ def _gmsh_counts(geometry, sizes):
 
 
 @pytest.mark.parametrize("values", [{"geometry.cones": 1, **COARSEST},
-                                    {"geometry.cones": 1, "geometry.tissue_shape": "slab", **COARSE}],
-                         ids=["cylinder", "slab"])
+                                    {"geometry.cones": 1, "geometry.tissue_shape": "slab", **COARSE},
+                                    {"geometry.cones": 1, "geometry.cone_fillet_mm": 0.05, **COARSE}],
+                         ids=["cylinder", "slab", "rounded rims"])
 def test_the_estimate_counts_gmshs_tetrahedra_and_nodes(values):
     # before the gradation bound the cylinder's coarsest mesh was estimated at 0.38 of gmsh's count
     scene = Scene.builtin("paper").with_values({"geometry.dimension": 3, **values})

@@ -22,10 +22,7 @@ from suture_fem.support.errors import SceneError
 
 THREE_D = {"geometry.dimension": 3, "output.critical_distance_mm": 0.0, "output.quantities": ["usum", "seqv"]}
 #: A value of each key that a 3-D scene refuses.
-REFUSED = {
-    "geometry.cone_fillet_mm": 0.04, "mesh.geometry_degree": 2,
-    "effects.thread_interface": "sliding", "effects.cone_interface": "frictionless",
-}
+REFUSED = {"mesh.geometry_degree": 2, "effects.thread_interface": "coulomb", "effects.cone_interface": "frictionless"}
 
 
 def test_a_plain_3d_scene_passes_the_checks():
@@ -34,6 +31,8 @@ def test_a_plain_3d_scene_passes_the_checks():
     built = {"output.fields": True, "loading.control": "displacement", "effects.inertia": True, "effects.gravity": True,
              "effects.suture": "rigid"}
     check_three_d(Scene.from_values({**THREE_D, **built}))  # and these, since 2026-12
+    rounded_rims_frictionless_thread = {"geometry.cone_fillet_mm": 0.04, "effects.thread_interface": "frictionless"}
+    check_three_d(Scene.from_values({**THREE_D, **rounded_rims_frictionless_thread}))
 
 
 @pytest.mark.parametrize("key", [k for k, _, _ in UNSUPPORTED])

@@ -4,7 +4,9 @@ The tissue's side of the thread's track (its own nodes, facets tagged ``track``:
 for a sliding thread) may move away from the thread but not into it. The thread's surface is taken as
 the track r = r_t itself (its radial Poisson contraction, at most nu F / (pi r_t E), is neglected as
 for the sliding thread), so the gap at a track point is its radial displacement u_r and the
-non-penetration condition is u_r >= 0, wherever along the thread the point has slid: no search.
+non-penetration condition is u_r >= 0, wherever along the thread the point has slid: no search. In 3-D (the
+half model, the thread along y) u_r = u . e_r with e_r = (x, 0, z) / sqrt(x^2 + z^2), the outward radial unit vector
+off the thread's axis at the track point's reference position.
 
 The condition is imposed by a penalty (Wriggers, Computational Contact Mechanics, 2006, ch. 6),
 
@@ -50,9 +52,16 @@ def contact_term(ctx: FormContext, kappa: float, terms: Terms) -> None:
     """The penalty's potential on the track, added to ``terms`` as ``contact:thread``."""
     mesh = ctx.w.function_space.mesh
     stiffness = dolfinx.fem.Constant(mesh, PETSc.ScalarType(kappa))
-    ur = ctx.u[0]
+    ur = radial(ctx.u, ctx.x)
     closed = ufl.conditional(ufl.lt(ur, 0.0), ur, 0.0)
     terms.potential["contact:thread"] = 0.5 * stiffness * closed**2 * ctx.weight * ctx.ds(int(Facet.TRACK))
+
+
+def radial(u: Any, x: Any) -> Any:
+    """U_r: u's first component in 2-D; in 3-D u . (x, 0, z) / sqrt(x^2 + z^2) (the thread's axis is y)."""
+    if len(x) == 2:
+        return u[0]
+    return (u[0] * x[0] + u[2] * x[2]) / ufl.sqrt(x[0] ** 2 + x[2] ** 2)
 
 
 def cones_augmented(section: Any) -> bool:

@@ -82,9 +82,10 @@ def advice(physics: Physics, cause: StopCause) -> str:
 def _cone_advice(effects: Any, degree: int, moved: bool) -> str:
     if effects.thread_track and effects.cone_interface != "sliding":  # nothing tied
         if moved:  # the end moved already: what is known of this model's reach
-            return ("; with nothing tied the cones alone hold the thread: the paper's four Coulomb cones stop at a "
-                    "moved end of about 3.2 mm (0.57 N; one cone reaches 4 mm, 0.25 N), a limit of this model as built "
-                    '(docs/contact.md: Nothing tied); effects.thread_interface = "tied" carries the pull further')
+            return ("; with nothing tied the cones alone hold the thread: the paper's four cones with a sliding "
+                    "thread stop at a moved end of 7.8 mm (5.1 N) frictionless, at 3.2-6.3 mm (0.55-3.2 N, by the load "
+                    "steps) with Coulomb friction mu 0.3, limits of this model as built (docs/contact.md: Nothing "
+                    'tied, rerun); effects.thread_interface = "tied" carries the pull further')
         return ("; with nothing tied the cones alone hold the thread, and the paper's cones (apex toward the pull) "
                 "hold little (one cone at P1, the end moved 4 mm: 0.25 N with a sliding thread and Coulomb cones, "
                 'mu 0.3, against 0.94 N tied): follow the pull with loading.control = "displacement" '
@@ -94,7 +95,10 @@ def _cone_advice(effects: Any, degree: int, moved: bool) -> str:
                 "cone stops at 0.38 N pulled to 1 N and in its first step pulled to 4 N, as four do (docs/contact.md: "
                 "P2 cones)")
     if effects.cone_interface == "sliding":
-        return ""
+        return ("; the sliding cones hold the tissue by a pure penalty, whose penetration grows with the pressure "
+                "until the wall guard refuses it (the paper scene's end moved 12 mm: 16.55 N with "
+                "effects.contact_penalty = 100, the epidermis's Gent limit near 20 N with 300, docs/hardcases.md): "
+                "raise effects.contact_penalty")
     return ("; unilateral cones stall where the tissue releases from them (a few nodes swapping between open and "
             "pressed; which state a ramp reaches is path-picked, docs/contact.md: Two equilibria): the paper scene "
             '(4 cones, P1, force control, the default steps) reaches 4 N; effects.cone_interface = "sliding" does '

@@ -45,3 +45,10 @@ def test_nothing_tied_is_pointed_to_the_moved_end_not_to_the_release():
     moved.effects.cone_interface, moved.control = "coulomb", object()  # the end already moved
     text = advice(moved, StopCause.INVERTED_ELEMENT)
     assert "nothing tied" in text and "loading.control" not in text and 'thread_interface = "tied"' in text
+
+
+def test_sliding_cones_are_pointed_to_a_stiffer_penalty_not_to_the_mixed_formulation():
+    sliding = physics(degree=1, thread=False, cones=True)
+    sliding.effects.cone_interface = "sliding"
+    text = advice(sliding, StopCause.NEWTON_DIVERGENCE)
+    assert "raise effects.contact_penalty" in text and "incompressibility" not in text

@@ -30,8 +30,13 @@ class Reaction(Quantity):
         n_owned = b.getLocalSize()
         owned = physics.outer_z_dofs[physics.outer_z_dofs < n_owned]
         local = float(np.sum(b.array[owned]))
-        free = physics.unknowns.kind[:n_owned] == FREE  # not held by a boundary condition, the reduction, the track
+        unknowns = physics.unknowns
+        free = unknowns.kind[:n_owned] == FREE  # not held by a boundary condition, the reduction, the track
         local_sq = float(np.sum(b.array[free] ** 2))
+        if unknowns.hoop is not None:  # a sliding track node's equation along its hoop direction t (3-D)
+            mine = unknowns.hoop[:, 0] < n_owned
+            pairs, t = unknowns.hoop[mine], unknowns.hoop_dirs[mine]
+            local_sq += float(np.sum((t[:, 0] * b.array[pairs[:, 0]] + t[:, 1] * b.array[pairs[:, 1]]) ** 2))
         b.destroy()
         comm = physics.comm
         return comm.allreduce(local, op=MPI.SUM), float(np.sqrt(comm.allreduce(local_sq, op=MPI.SUM)))

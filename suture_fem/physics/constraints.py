@@ -18,6 +18,7 @@ from typing import Any
 import dolfinx
 import dolfinx.fem
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem.geometry import mesh as meshmod
@@ -53,9 +54,13 @@ class Unknowns:
         return 0 if self.hoop is None else int(np.count_nonzero(self.hoop[:, 0] < self.n_owned))
 
     def hold_to_hoop(self, pairs: np.ndarray, dirs: np.ndarray) -> None:
-        """Nodes that move along (t_x, t_z) only in the x-z plane: ``pairs`` their (u_x, u_z) dofs, ``dirs`` t."""
-        self.hoop, self.hoop_dirs = pairs, dirs
-        self.kind[pairs.ravel()] = HOOP
+        """Nodes that move along (t_x, t_z) only in the x-z plane: ``pairs`` their (u_x, u_z) dofs, ``dirs`` t.
+
+        A node with a dof already held (a boundary condition, the rigid suture) keeps it: it is left out.
+        """
+        free = np.all(self.kind[pairs] == FREE, axis=1)
+        self.hoop, self.hoop_dirs = pairs[free], dirs[free]
+        self.kind[self.hoop.ravel()] = HOOP
 
     def count_rigid(self, comm: Any) -> int:
         """Global number of dofs replaced by the rigid suture's motion d."""
@@ -179,7 +184,8 @@ def thread_track_3d(tagged: meshmod.TaggedMesh, W_u: Any) -> tuple[Any, np.ndarr
         order = np.argsort(inverse[found])  # by node: the collapsed components' dofs are numbered alike
         dofs.append(np.asarray(found, dtype=np.int32)[order])
         xyz.append(collapsed.tabulate_dof_coordinates()[inverse[found][order]])
-    if len(dofs[0]) != len(dofs[1]) or not np.allclose(xyz[0], xyz[1], rtol=0.0, atol=1e-12):
+    unpaired = len(dofs[0]) != len(dofs[1]) or not np.allclose(xyz[0], xyz[1], rtol=0.0, atol=1e-12)
+    if mesh.comm.allreduce(unpaired, op=MPI.LOR):  # on every rank: one rank alone raising would hang the others
         raise RuntimeError("the track's u_x and u_z dofs do not pair node by node")
     x, z = xyz[0][:, 0], xyz[0][:, 2]
     r = np.hypot(x, z)

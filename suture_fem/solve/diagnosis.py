@@ -56,19 +56,21 @@ def failure_text(newton: NewtonSolver, reason: str, its: int) -> str:
     return text
 
 
-def advice(physics: Physics, cause: StopCause) -> str:
+def advice(physics: Physics, cause: StopCause, violation: Any = None) -> str:
     """What to change, for a stop the plain displacement formulation causes ('' when there is no advice).
 
     A nearly incompressible tissue locks the displacement element: Newton diverges or elements invert
     under a load the mixed formulation carries (docs/hardcases.md: K x10-x1000 at P2). The contact stops
-    get what carries them further, where that is known (docs/contact.md).
+    get what carries them further, where that is known (docs/contact.md); ``violation``: the guard's last
+    (:class:`~suture_fem.solve.guard.Violation`, or None), which tells a stop on the cones' wall guard.
     """
     effects = getattr(physics, "effects", None)
     if effects is None or cause not in (StopCause.NEWTON_DIVERGENCE, StopCause.INVERTED_ELEMENT):
         return ""
     degree = getattr(physics, "degree", 1)
     moved = getattr(physics, "control", None) is not None  # the pulled end already moved (displacement control)
-    text = _cone_advice(effects, degree, moved) if effects.cone_contact else ""
+    walled = violation is not None and violation.quantity is Limit.CONE_DEPTH
+    text = _cone_advice(effects, degree, moved, walled) if effects.cone_contact else ""
     if text:
         return text
     if effects.unilateral_thread:
@@ -79,7 +81,7 @@ def advice(physics: Physics, cause: StopCause) -> str:
             'displacement-pressure, free of locking)' + (", or use mesh.degree = 1" if degree != 1 else ""))
 
 
-def _cone_advice(effects: Any, degree: int, moved: bool) -> str:
+def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
     if effects.thread_track and effects.cone_interface != "sliding":  # nothing tied
         if moved:  # the end moved already: what is known of this model's reach
             return ("; with nothing tied the cones alone hold the thread: the paper's four cones with a sliding "
@@ -94,7 +96,9 @@ def _cone_advice(effects: Any, degree: int, moved: bool) -> str:
         return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
                 "cone stops at 0.38 N pulled to 1 N and in its first step pulled to 4 N, as four do (docs/contact.md: "
                 "P2 cones)")
-    if effects.cone_interface == "sliding":
+    if effects.cone_interface == "sliding" and not walled:
+        return ""  # the tissue's advice, below
+    if effects.cone_interface == "sliding":  # its pure penalty's penetration reached the wall guard
         return ("; the sliding cones hold the tissue by a pure penalty, whose penetration grows with the pressure "
                 "until the wall guard refuses it (the paper scene's end moved 12 mm: 16.55 N with "
                 "effects.contact_penalty = 100, the epidermis's Gent limit near 20 N with 300, docs/hardcases.md): "

@@ -371,12 +371,13 @@ class _Stepper:
             stop = (f"{self.cuts_here} cutbacks in a row at this load (the step {2 ** self.cuts_here}x shorter, still "
                     "failing)" if futile else f"{path.label} step fell below its minimum {path.min_step:g}")
             stop = f"{contact_cutbacks(effects)} cutbacks in this ramp with contact" if crawl and not futile else stop
+            tip = advice(self.physics, cause, self.newton.last_violation)
             raise SolveStopped.with_history(
                 result,
                 cause=cause,
                 load_reached=path.force(self.s),
                 attempted=path.force(trial),
-                detail=f"{stop} after {result.cutbacks} cutbacks; last failure: {why}{advice(self.physics, cause)}",
+                detail=f"{stop} after {result.cutbacks} cutbacks; last failure: {why}{tip}",
             )
 
     def _leap(self, trial: float, effects: Any) -> bool:

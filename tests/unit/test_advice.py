@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+from suture_fem.physics.materials import Limit
 from suture_fem.solve.diagnosis import advice
 from suture_fem.support.errors import StopCause
 
@@ -47,8 +48,14 @@ def test_nothing_tied_is_pointed_to_the_moved_end_not_to_the_release():
     assert "nothing tied" in text and "loading.control" not in text and 'thread_interface = "tied"' in text
 
 
-def test_sliding_cones_are_pointed_to_a_stiffer_penalty_not_to_the_mixed_formulation():
+def test_sliding_cones_on_the_wall_guard_are_pointed_to_a_stiffer_penalty_and_only_there():
+    walled = SimpleNamespace(quantity=Limit.CONE_DEPTH)
     sliding = physics(degree=1, thread=False, cones=True)
     sliding.effects.cone_interface = "sliding"
-    text = advice(sliding, StopCause.NEWTON_DIVERGENCE)
+    text = advice(sliding, StopCause.NEWTON_DIVERGENCE, walled)
     assert "raise effects.contact_penalty" in text and "incompressibility" not in text
+    inverted = advice(sliding, StopCause.INVERTED_ELEMENT, SimpleNamespace(quantity=Limit.J))
+    assert "contact_penalty" not in inverted and "incompressibility" in inverted  # the tissue's advice, as before
+    thread = physics(degree=1, thread=True, cones=True)
+    thread.effects.cone_interface = "sliding"
+    assert 'effects.thread_interface = "sliding"' in advice(thread, StopCause.INVERTED_ELEMENT)

@@ -9,9 +9,10 @@ cheap where the state follows them by chord steps (the last factorisation, one r
 back-substitution: the bound's change barely moves the Jacobian) instead of Newton solves of their own,
 and the first solve need not be exact either (it stops at :data:`FORCING` of the law's residual); a last
 full Newton solve, after which every law holds, gives the answer, as before (docs/contact.md, "A cheaper
-Coulomb"). The frictionless cones' multipliers take the same chord steps (their Jacobian depends on them only through
-the rims' curvature term) after a first full solve (an inexact one moved four cones' 2 N state to the other
-of its two equilibria, docs/contact.md "Two equilibria").
+Coulomb"). Where no Coulomb bound is updated (frictionless cones, the thread tied or sliding), the cones'
+multipliers take the same chord steps (their Jacobian depends on them only through the rims' curvature term)
+after a first full solve (an inexact one moved four cones' 2 N state to the other of its two equilibria,
+docs/contact.md "Two equilibria"); beside a Coulomb bound its measures decide, as before.
 """
 
 from __future__ import annotations
@@ -89,13 +90,14 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
     solve stops at :data:`FORCING` times the law's residual at its start. Between updates the state is
     moved by ``chord()`` (one step with the last factorisation; False: none taken) while each update shrinks
     the law's residual by :data:`CHORD_CONTRACTION` at least and moves the bound by at most
-    :data:`CHORD_BOUND_CHANGE` of itself (:func:`_chord_on`; each law's ``last_residual`` and ``last_change``:
-    a Coulomb bound's, or without friction an augmented Lagrangian's multipliers'); the answer is always that of
+    :data:`CHORD_BOUND_CHANGE` of itself (:func:`_chord_on`; the Coulomb bounds' ``last_residual`` and
+    ``last_change``, or with no Coulomb bound the augmented Lagrangians' multipliers'); the answer is always that of
     a last solve to the full tolerance after which the laws held. Returns the last solve's (converged, reason)
     with the Newton iterations summed; bounds that have not settled after :data:`FIXED_POINT_SOLVES` solves
     (and as many chord steps) fail the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
     """
     coulomb = [law for law in laws if law.mu > 0.0]
+    fixed = coulomb or laws  # what decides a chord step: a Coulomb bound where there is one, else the multipliers
     loose = FORCING * max(law.residual() for law in coulomb) if coulomb and chord is not None else 0.0
     converged, its, reason = solve_once(loose)
     for law in laws:
@@ -105,12 +107,12 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
         if not converged:
             return converged, its, reason
         held = all([law.update(tolerance()) for law in laws])  # every law updated, then judged
-        now = max((law.last_residual for law in laws), default=math.inf)
+        now = max((law.last_residual for law in fixed), default=math.inf)
         log.debug("fixed point: %d solves (%d Newton its), %d chord steps; law residual %.2e N (tolerance %.2e N)",
                   solves, its, chords, now, tolerance())
         if held and solved and loose == 0.0:
             return converged, its, reason
-        change = max((law.last_change for law in laws), default=math.inf)
+        change = max((law.last_change for law in fixed), default=math.inf)
         take, last = _chord_on(chord, held, now, last, change, chords), now
         if take and chord():  # type: ignore[misc]
             chords, solved = chords + 1, False

@@ -306,7 +306,9 @@ def _normal_form(physics: Any, kappa: float) -> Any:
     _, ds = measures(mesh, tagged.cell_tags, tagged.facet_tags, physics.degree)  # the penalty term's quadrature
     ur = radial(physics.u, x)
     closed = ufl.conditional(ufl.lt(ur, 0.0), -ur, 0.0)
-    return compat.form(kappa * closed * radial(v, x) * kinematics.volume_weight(x) * ds(int(Facet.TRACK)))
+    force = kappa * closed * radial(v, x)
+    weighted = force * 2 * math.pi * x[0] if len(x) == 2 else force * kinematics.HALF_MODEL_WEIGHT
+    return compat.form(weighted * ds(int(Facet.TRACK)))
 
 
 def nodal_terms(problem: Any) -> list[Any]:

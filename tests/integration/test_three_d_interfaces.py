@@ -61,7 +61,7 @@ def test_a_thread_in_its_own_track_in_3d_agrees_with_the_axisymmetric_one(tmp_pa
             assert max(a["interface"]["opening_max_mm"], a["interface"]["penetration_max_mm"]) < 1e-12
 
 
-@pytest.mark.parametrize("model", ["frictionless", "sliding"])
+@pytest.mark.parametrize("model", ["frictionless", "sliding", "coulomb"])
 def test_a_thread_in_its_own_track_without_cones_stops_in_3d_as_in_2d(tmp_path, model):
     interface = [f'effects.thread_interface="{model}"']
     proc = cli(["run", "paper", *sets([*COARSE_3D, *interface, "geometry.cones=0"]), "--no-pictures",

@@ -201,7 +201,8 @@ class ThreadFriction(SlipBound):
 
         The force is the penalty term's own (consistent) nodal force, the one the tissue balances, so the
         friction bound mu p and the interface output's nominal pressure are the same number. In 3-D its
-        component along the node's e_r (the force's x and z parts follow e_r across the node's facets).
+        component along the node's e_r (the force's x and z parts follow e_r across the node's facets); the
+        output projects on the facets' averaged normal instead, which the polygonal track tilts off e_r.
         """
         b = dolfinx.fem.petsc.assemble_vector(self._normal)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)

@@ -22,7 +22,7 @@ from suture_fem.support.errors import SceneError
 
 THREE_D = {"geometry.dimension": 3, "output.critical_distance_mm": 0.0, "output.quantities": ["usum", "seqv"]}
 #: A value of each key that a 3-D scene refuses.
-REFUSED = {"mesh.geometry_degree": 2, "effects.thread_interface": "coulomb", "effects.cone_interface": "frictionless"}
+REFUSED = {"mesh.geometry_degree": 2, "effects.cone_interface": "frictionless"}
 
 
 def test_a_plain_3d_scene_passes_the_checks():

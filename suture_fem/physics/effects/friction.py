@@ -10,6 +10,8 @@ b it faced in the reference configuration, on the relative axial displacement g 
 s = ``effects.friction_slip_mm`` the regularising slip (CONTACT.md: a sharp stick/slip switch makes
 Newton chatter; an arctan or elastic-slip law helps; MOOSE and FEBio regularise the same way). Node a
 receives the residual w t and node b its opposite, w the node's 2 pi r-weighted lumped track area.
+In 3-D (the half model, the thread along y) the same terms act on u_y, w is the node's lumped track area
+doubled (the half model's weight) and p the penalty's nodal force along the node's e_r over w.
 
 The bound b is held fixed during a Newton solve (Tresca friction: the terms are then the derivative of
 w b s ln cosh(g / s), so the Jacobian stays symmetric and the line search's energy objective stays
@@ -52,8 +54,11 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
+from suture_fem.geometry.outline import radial_directions
 from suture_fem.geometry.regions import Facet
+from suture_fem.physics import kinematics
 from suture_fem.physics.constraints import mark_dofs
+from suture_fem.physics.effects.contact import radial
 from suture_fem.physics.effects.fixed_point import Aitken, update_norms
 from suture_fem.physics.effects.pattern import widen
 from suture_fem.physics.forms import measures
@@ -143,9 +148,13 @@ class ThreadFriction(SlipBound):
     """
 
     def __init__(self, comm: Any, state: Any, dofs: np.ndarray, weight: np.ndarray, track: np.ndarray, normal: Any,
-                 mu: float, slip_m: float):
-        """``state``: the state's PETSc vector; ``normal``: the compiled form of the penalty's nodal force."""
+                 mu: float, slip_m: float, radial: np.ndarray | None = None):
+        """``state``: the state's PETSc vector; ``normal``: the compiled form of the penalty's nodal force.
+
+        ``radial``: in 3-D, (pairs, 3) the unit vector e_r off the thread's axis at each track node (None in 2-D).
+        """
         self.comm, self.mu, self.slip = comm, float(mu), float(slip_m)
+        self.radial = radial
         self.dofs, self.weight, self.track, self._normal = dofs, weight, track, normal
         self.pairs = len(weight)
         self.surface = 0.0
@@ -161,8 +170,10 @@ class ThreadFriction(SlipBound):
         """A scene's: the tissue's owned track nodes paired with the thread's surface nodes they faced."""
         track, thread, weight = _nodes(physics)
         dofs, weight = _pairs(physics, track, thread, weight)
+        xyz = physics.V.tabulate_dof_coordinates()[track]
+        e_r = radial_directions(xyz) if physics.mesh.geometry.dim == 3 else None
         return cls(physics.comm, compat.function_vector(physics.state), dofs, weight, track,
-                   _normal_form(physics, kappa), mu, slip_m)
+                   _normal_form(physics, kappa), mu, slip_m, e_r)
 
     @classmethod
     def on(cls, physics: Any, section: Any, kappa: float) -> ThreadFriction:
@@ -189,11 +200,16 @@ class ThreadFriction(SlipBound):
         """The contact pressure at each pair's track node now (Pa): the penalty's normal force there over w.
 
         The force is the penalty term's own (consistent) nodal force, the one the tissue balances, so the
-        friction bound mu p and the interface output's nominal pressure are the same number.
+        friction bound mu p and the interface output's nominal pressure are the same number. In 3-D its
+        component along the node's e_r (the force's x and z parts follow e_r across the node's facets); the
+        output projects on the facets' averaged normal instead, which the polygonal track tilts off e_r.
         """
         b = dolfinx.fem.petsc.assemble_vector(self._normal)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        force = b.array[2 * self.track]
+        if self.radial is None:
+            force = b.array[2 * self.track]
+        else:
+            force = np.sum(b.array[3 * self.track[:, None] + np.arange(3)] * self.radial, axis=1)
         b.destroy()
         return np.maximum(force, 0.0) / self.weight
 
@@ -250,8 +266,12 @@ class ThreadFriction(SlipBound):
 
 
 def _nodes(physics: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """V's owned track nodes of the tissue, local thread-surface nodes, and every local node's lumped track area."""
+    """V's owned track nodes of the tissue, local thread-surface nodes, and every local node's lumped track area.
+
+    The area is 2 pi r-weighted in 2-D, and in 3-D the half model's doubled (:func:`kinematics.volume_weight`).
+    """
     V, mesh, tagged = physics.V, physics.mesh, physics.tagged
+    bs = V.dofmap.index_map_bs
     fdim = mesh.topology.dim - 1
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)
     n_local = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
@@ -261,29 +281,35 @@ def _nodes(physics: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     on_track[dolfinx.fem.locate_dofs_topological(V, fdim, meshmod.facets(tagged, Facet.TRACK))] = True
     track = np.flatnonzero(on_track & ~suture)
     track = track[track < owned]
-    xy = V.tabulate_dof_coordinates()[:, :2]
+    xyz = V.tabulate_dof_coordinates()
+    r = xyz[:, 0] if bs == 2 else np.hypot(xyz[:, 0], xyz[:, 2])  # off the thread's axis (y in 3-D)
     r_t = tagged.geometry.r_thread * regions.MM
     thread_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.THREAD)).reshape(n_local, -1).any(axis=1)
-    thread = np.flatnonzero(thread_cells & (np.abs(xy[:, 0] - r_t) < 1e-9 * max(tagged.geometry.z_end, 1.0)))
+    thread = np.flatnonzero(thread_cells & (np.abs(r - r_t) < 1e-9 * max(tagged.geometry.z_end, 1.0)))
     v = ufl.TestFunction(V)
     x = ufl.SpatialCoordinate(mesh)
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags)
-    b = dolfinx.fem.petsc.assemble_vector(compat.form(2 * math.pi * x[0] * v[1] * ds(int(Facet.TRACK))))
+    b = dolfinx.fem.petsc.assemble_vector(compat.form(kinematics.volume_weight(x) * v[1] * ds(int(Facet.TRACK))))
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    weight = b.array[: 2 * owned].reshape(-1, 2)[:, 1].copy()
+    weight = b.array[: bs * owned].reshape(-1, bs)[:, 1].copy()
     b.destroy()
     return track, thread, weight
 
 
 def _normal_form(physics: Any, kappa: float) -> Any:
-    """The penalty's radial nodal force on the tissue's track (compiled): int kappa <-u_r> v_r 2 pi r ds_track."""
+    """The penalty's radial nodal force on the tissue's track (compiled): int kappa <-u_r> v_r 2 pi r ds_track.
+
+    In 3-D u_r = u . e_r and v_r = v . e_r (:func:`~.contact.radial`), the weight the half model's.
+    """
     mesh, tagged = physics.mesh, physics.tagged
     v = ufl.TestFunction(physics.V)
     x = ufl.SpatialCoordinate(mesh)
     _, ds = measures(mesh, tagged.cell_tags, tagged.facet_tags, physics.degree)  # the penalty term's quadrature
-    ur = physics.u[0]
+    ur = radial(physics.u, x)
     closed = ufl.conditional(ufl.lt(ur, 0.0), -ur, 0.0)
-    return compat.form(kappa * closed * v[0] * 2 * math.pi * x[0] * ds(int(Facet.TRACK)))
+    force = kappa * closed * radial(v, x)
+    weighted = force * 2 * math.pi * x[0] if len(x) == 2 else force * kinematics.HALF_MODEL_WEIGHT
+    return compat.form(weighted * ds(int(Facet.TRACK)))
 
 
 def nodal_terms(problem: Any) -> list[Any]:
@@ -326,8 +352,8 @@ def slip_laws(problem: Any) -> list[SlipBound]:
 
 
 def global_dofs(physics: Any, nodes: np.ndarray, component: int) -> np.ndarray:
-    """Global indices in the state's vector of V's local ``nodes``' ``component`` (0: r, 1: z)."""
-    local = 2 * np.asarray(nodes, dtype=np.int64) + component
+    """Global indices in the state's vector of V's local ``nodes``' ``component`` (0: r, 1: z; 3-D: x, y, z)."""
+    local = physics.V.dofmap.index_map_bs * np.asarray(nodes, dtype=np.int64) + component
     if physics.u_in_state is not None:
         local = np.asarray(physics.u_in_state)[local]
     im = physics.W.dofmap.index_map
@@ -338,13 +364,13 @@ def global_dofs(physics: Any, nodes: np.ndarray, component: int) -> np.ndarray:
 
 def _pairs(physics: Any, track: np.ndarray, thread: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(owned track nodes, 2) global dofs u_z(a), u_z(b), b the thread node at a's place; their weights."""
-    xy = physics.V.tabulate_dof_coordinates()[:, :2]
-    key = np.round(xy / MATCH_TOLERANCE_M).astype(np.int64)
-    mine = {(int(k[0]), int(k[1])): int(d) for k, d in zip(key[thread], global_dofs(physics, thread, 1))}
-    faced: dict[tuple[int, int], int] = {}
+    xyz = physics.V.tabulate_dof_coordinates()  # (x, y, 0) in 2-D
+    key = np.round(xyz / MATCH_TOLERANCE_M).astype(np.int64)
+    mine = {tuple(int(c) for c in k): int(d) for k, d in zip(key[thread], global_dofs(physics, thread, 1))}
+    faced: dict[tuple[int, ...], int] = {}
     for part in physics.comm.allgather(mine):
         faced.update(part)
-    partner = np.array([faced.get((int(k[0]), int(k[1])), -1) for k in key[track]], dtype=np.int64)
+    partner = np.array([faced.get(tuple(int(c) for c in k), -1) for k in key[track]], dtype=np.int64)
     missing = int(physics.comm.allreduce(int(np.count_nonzero(partner < 0))))
     if missing:
         raise ValueError(f"{missing} track nodes face no thread node (the track is not split off the thread)")

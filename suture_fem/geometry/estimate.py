@@ -92,20 +92,17 @@ def _fillet_cells(g: Geometry, sizes: MeshSizes) -> float:
     extra = 0.0
     reach = FILLET_GRADING * sizes.rim
     d = (np.arange(200) + 0.5) * reach / 200
-    for _, h0 in fillet_arcs(g, sizes):
+    for _, h0 in fillet_sizes(g, sizes):
         h = h0 + (sizes.rim - h0) * d / reach
         extra += float(np.sum(2 * np.pi * d * (reach / 200) * 4.0 / math.sqrt(3.0) * (1 / h**2 - 1 / sizes.rim**2)))
     return extra
 
 
-def fillet_arcs(g: Geometry, sizes: MeshSizes) -> Iterator[tuple[tuple[float, float], float]]:
+def fillet_sizes(g: Geometry, sizes: MeshSizes) -> Iterator[tuple[tuple[float, float], float]]:
     """Each fillet arc of the cones: its centre (r, z) and the mesh size on it (``sizes.fillet`` of its length)."""
     for cone in g.cones:
-        for a, c, b in (seg for kind, seg in cone.outline if kind == "arc"):
-            radius = math.dist(a, c)
-            angle = math.acos(max(-1.0, min(1.0, ((a[0] - c[0]) * (b[0] - c[0]) + (a[1] - c[1]) * (b[1] - c[1]))
-                                                / radius**2)))
-            yield c, sizes.fillet(radius * angle)
+        for _, c, _, _, length in cone.arcs():
+            yield c, sizes.fillet(length)
 
 
 def machine_memory_gib() -> float:

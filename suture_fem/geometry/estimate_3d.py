@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from suture_fem.geometry.estimate import MeshEstimate, fillet_arcs, fits, size_grid
+from suture_fem.geometry.estimate import MeshEstimate, fillet_sizes, fits, size_grid
 from suture_fem.geometry.gmsh_3d import ELEMENTS_PER_TURN
 from suture_fem.geometry.gmsh_model import FILLET_GRADING, MeshSizes
 from suture_fem.geometry.section import Geometry
@@ -88,7 +88,7 @@ def _fillet_cells(g: Geometry, sizes: MeshSizes) -> float:
     extra = 0.0
     reach = FILLET_GRADING * sizes.rim
     d = (np.arange(200) + 0.5) * reach / 200
-    for c, h0 in fillet_arcs(g, sizes):
+    for c, h0 in fillet_sizes(g, sizes):
         h = h0 + (sizes.rim - h0) * d / reach
         tube = math.pi * c[0] * 2.0 * math.pi * d * (reach / 200)  # the ring's volume at distance d, revolved
         extra += float(np.sum(tube * 6.0 * math.sqrt(2.0) * (1 / h**3 - 1 / sizes.rim**3)))

@@ -168,7 +168,7 @@ def rim_circles(g: Geometry) -> list[int]:
     import gmsh
 
     tol = 1e-6 * max(g.z_end, 1.0)
-    rims = [*g.corners, *(p for _, seg in fillet_segments(g) for p in (seg[0], seg[2]))]
+    rims = [*g.corners, *(p for cone in g.cones for a, _, b, _, _ in cone.arcs() for p in (a, b))]
     found = []
     for _, c in gmsh.model.getEntities(1):
         r0, r1, y0, y1, _ = extent(1, c)
@@ -178,27 +178,18 @@ def rim_circles(g: Geometry) -> list[int]:
     return found
 
 
-def fillet_segments(g: Geometry) -> list[tuple[str, tuple]]:
-    """Every fillet arc of the cones' outlines: ("arc", (start, centre, end)) in (r, y)."""
-    return [(kind, seg) for cone in g.cones for kind, seg in cone.outline if kind == "arc"]
-
-
 def fillet_faces(g: Geometry) -> list[tuple[int, float, float]]:
     """(face, the arc's length, its largest r; mm) of every fillet arc revolved: each sample on the arc's circle."""
     import gmsh
 
     tol = 1e-6 * max(g.z_end, 1.0)
     out = []
-    for _, seg in fillet_segments(g):
-        (a, centre, b) = seg
-        radius = math.dist(a, centre)
-        angle = math.acos(max(-1.0, min(1.0, ((a[0] - centre[0]) * (b[0] - centre[0])
-                                              + (a[1] - centre[1]) * (b[1] - centre[1])) / radius**2)))
+    for a, centre, b, radius, length in (arc for cone in g.cones for arc in cone.arcs()):
         for _, s in gmsh.model.getEntities(2):
             xyz = samples(2, s)
             d = np.hypot(np.hypot(xyz[:, 0], xyz[:, 2]) - centre[0], xyz[:, 1] - centre[1])
             if np.all(np.abs(d - radius) < tol):
-                out.append((s, radius * angle, max(a[0], b[0])))
+                out.append((s, length, max(a[0], b[0])))
     return out
 
 

@@ -45,6 +45,16 @@ class Cone:
     points: list[Point] = field(default_factory=list)
     radii: dict[int, float] = field(default_factory=dict)
 
+    def arcs(self) -> list[tuple[Point, Point, Point, float, float]]:
+        """Each fillet arc of the outline: (start, centre, end, radius, length), mm."""
+        out = []
+        for a, c, b in (seg for kind, seg in self.outline if kind == "arc"):
+            radius = math.dist(a, c)
+            angle = math.acos(max(-1.0, min(1.0, ((a[0] - c[0]) * (b[0] - c[0]) + (a[1] - c[1]) * (b[1] - c[1]))
+                                                / radius**2)))
+            out.append((a, c, b, radius, radius * angle))
+        return out
+
     def rounded(self, radius: float, r_thread: float, to_axis: bool = False) -> list[Segment]:
         """The outline with every sharp convex corner off the thread rounded by ``radius`` (the fillets kept).
 

@@ -94,10 +94,9 @@ class Reduction:
         ones.set(1.0)
         self.T.multTranspose(ones, self.counts)
         ones.destroy()
-        if n_hoop:  # a hoop column's entries are a unit vector: T^T u is the hoop component itself
-            start = self.counts.getOwnershipRange()[0] + n_free
-            self.counts.setValues(np.arange(start, start + n_hoop, dtype=PETSc.IntType), np.ones(n_hoop))
-            self.counts.assemble()
+        # A hoop column's entries are a unit vector: T^T u is the hoop component itself. The column is owned here,
+        # so its count is written in place (an assemble() is collective and some ranks hold no hoop column).
+        self.counts.array[n_free : n_free + n_hoop] = 1.0
         self.problem = problem
         self.offset = offset
 

@@ -61,8 +61,14 @@ def test_a_hoop_column_on_one_rank_alone(tmp_path):
     """Built on both ranks; x -> u = T x -> T^T u / counts gives x back; the hoop node moves along (0.6, 0.8)."""
     script = tmp_path / "reduction.py"
     script.write_text(SCRIPT)
-    proc = subprocess.run([*mpirun(2), sys.executable, "-P", str(script)], capture_output=True, text=True,
-                          env=mpi_env(), cwd=ROOT, timeout=300)
+    proc = subprocess.run(
+        [*mpirun(2), sys.executable, "-P", str(script)],
+        capture_output=True,
+        text=True,
+        env=mpi_env(),
+        cwd=ROOT,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.split("\n")
     counts = lines[0].split()

@@ -1,0 +1,102 @@
+"""Benchmark: what the cones hold pulled apex first (the paper) and base first, once the thread slides.
+
+For each cone count, cone kind ("full" or "hollow") and orientation, the pulled end is moved 4 mm
+(`loading.control = "displacement"`, reports at 1, 2 and 3 mm, P1) with the thread and cones tied (the
+paper's model) and with nothing tied: a sliding thread with frictionless cones, and with Coulomb cones
+(mu 0.3). Each case is one `suture-fem run` in a fresh process (a stopped case is a row too). Prints a
+table (the force at 1-4 mm, each cone's share at the last state, Newton iterations, cutbacks, CPU of the
+child process) and writes JSON.
+
+    .venv/bin/python benchmarks/cone_orientation.py [--out benchmarks/out/cone_orientation] [--cones 1,4]
+        [--kinds full,hollow] [--interfaces tied,frictionless,coulomb]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+MOVE = ['loading.control="displacement"', "loading.displacement_mm=4", "loading.report_displacements_mm=[1,2,3]",
+        "mesh.degree=1"]
+INTERFACES = {
+    "tied": [],
+    "frictionless": ['effects.thread_interface="sliding"', 'effects.cone_interface="frictionless"'],
+    "coulomb": ['effects.thread_interface="sliding"', 'effects.cone_interface="coulomb"',
+                "effects.friction_coefficient=0.3"],
+}
+ORIENTATIONS = ("apex_to_pull", "base_to_pull")
+
+
+def case(cones: int, kind: str, orientation: str, interface: str, out: Path) -> dict:
+    """One run; its forces, shares and cost."""
+    folder = out / f"{kind}_{cones}_{orientation}_{interface}"
+    values = [*MOVE, f"geometry.cones={cones}", f'geometry.cone_kind="{kind}"',
+              f'geometry.cone_orientation="{orientation}"', *INTERFACES[interface]]
+    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "run", "paper", "--no-pictures", "--out", str(folder)]
+    for v in values:
+        cmd += ["--set", v]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env={**os.environ, "OMP_NUM_THREADS": "1"})
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    row = {"cones": cones, "kind": kind, "orientation": orientation, "interface": interface, "exit": proc.returncode,
+           "cpu_s": round(cpu, 1)}
+    path = folder / "results.json"
+    if not path.exists():
+        return {**row, "error": proc.stderr.strip().splitlines()[-1:] or [""]}
+    r = json.loads(path.read_text())
+    reports = r["at_forces"]
+    row.update(status=r["status"], reached_mm=r.get("thread_end_displacement_mm", 0.0),
+               force_n=r.get("force_reached_n", 0.0),
+               newton_iterations=r["newton_iterations"], cutbacks=r["cutbacks"],
+               forces_n={f"{a['thread_end_displacement_mm']:.3g}": a["force_n"] for a in reports},
+               shares_n=r.get("load_share_n"))
+    if r["status"] != "converged":
+        row["stop"] = proc.stderr.strip().splitlines()[-1][:300] if proc.stderr.strip() else ""
+    return row
+
+
+def table(rows: list[dict]) -> str:
+    """The rows as a markdown table."""
+    lines = ["| cones | kind | orientation | thread / cones | force at 1 / 2 / 3 / 4 mm (N) | outcome | cones' shares "
+             "at the last state (N) | Newton its | cutbacks | CPU s |", "| --- " * 10 + "|"]
+    for r in rows:
+        if "status" not in r:
+            lines.append(f"| {r['cones']} | {r['kind']} | {r['orientation']} | {r['interface']} | - | no results "
+                         f"(exit {r['exit']}) | - | - | - | {r['cpu_s']} |")
+            continue
+        forces = " / ".join(f"{r['forces_n'][d]:.4f}" if d in r["forces_n"] else "-" for d in ("1", "2", "3", "4"))
+        outcome = "4 mm" if r["status"] == "converged" else f"stopped at {r['reached_mm']:.3g} mm, {r['force_n']:.3g} N"
+        shares = r["shares_n"] or {}
+        cones = " / ".join(f"{v:.3f}" for k, v in shares.items() if k.startswith("cone"))
+        thread = "sliding" if r["interface"] != "tied" else "tied"
+        lines.append(f"| {r['cones']} | {r['kind']} | {r['orientation']} | {thread} / {r['interface']} | {forces} | "
+                     f"{outcome} | {cones} | {r['newton_iterations']} | {r['cutbacks']} | {r['cpu_s']} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    """Run every case, print the table, write the JSON."""
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", default="benchmarks/out/cone_orientation")
+    p.add_argument("--cones", default="1,4")
+    p.add_argument("--kinds", default="full,hollow")
+    p.add_argument("--interfaces", default="tied,frictionless,coulomb")
+    args = p.parse_args()
+    out = Path(args.out).resolve()
+    rows = [case(int(c), k, o, i, out) for c in args.cones.split(",") for k in args.kinds.split(",")
+            for o in ORIENTATIONS for i in args.interfaces.split(",")]
+    print(table(rows))
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "cone_orientation.json").write_text(json.dumps(rows, indent=1))
+    print(f"wrote {out / 'cone_orientation.json'}")
+
+
+if __name__ == "__main__":
+    main()

@@ -19,7 +19,7 @@ from suture_fem.support.errors import SceneError
 #: (scene key, the values a 3-D scene may have, what the others would ask for). Each other value is refused in 3-D.
 UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
     ("mesh.geometry_degree", (1,), "quadratic cells are built in 2-D only"),
-    ("effects.cone_interface", ("tied",), "the cones' sliding and contact interfaces are built in 2-D only"),
+    ("effects.cone_interface", ("tied", "sliding"), "the cones' unilateral contact interfaces are built in 2-D only"),
 )
 
 

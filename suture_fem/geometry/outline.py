@@ -124,7 +124,8 @@ def project(points: np.ndarray, outline: list) -> Projection:
     a corner. The sign is the polygon's inside test (:func:`_polygon`) but beside an arc, where it is the arc's own
     side: the polygon's chords cut inside a convex arc by up to its sagitta (0.05 um for a 0.05 mm fillet), and a
     node pressed into the arc by less read as outside, its distance and contact force flipping sign as it crossed
-    a chord (a sliding cone's 3-D run stopped on that jump at 0.24 N).
+    a chord (a sliding cone's 3-D run stopped on that jump at 0.24 N). Within ON_CORNER_MM of the arc (a mesh node
+    on a fillet, to rounding) the polygon's reading is kept: the results before were computed with it.
     """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     n = len(points)
@@ -151,7 +152,7 @@ def project(points: np.ndarray, outline: list) -> Projection:
     turned = np.stack([out["tangent"][:, 1], -out["tangent"][:, 0]], axis=1)  # the tangent turned clockwise
     outward = turned if ccw else -turned
     corner = out["end"] & (best > ON_CORNER_MM)
-    beside_arc = out["arc"] & ~corner  # the arc's own side, not its chords': a point between the two was misread
+    beside_arc = out["arc"] & ~corner & (best > ON_CORNER_MM)  # the arc's own side, not its chords' (on it: either)
     sign = np.where(np.where(beside_arc, out["in_arc"], _inside(points, poly)), -1.0, 1.0)
     offset = points - out["near"]
     normal = np.where(corner[:, None], sign[:, None] * offset / np.maximum(best, 1e-300)[:, None], outward)

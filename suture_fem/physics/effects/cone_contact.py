@@ -27,7 +27,7 @@ point: exactly the slip's gradient beside a straight segment, and within phi / R
 left the friction's Hessian a term of order t / R short, and the Coulomb cones stopped at 0.2-0.3 N instead of
 reaching 4 N). The Jacobian is the penalty's exact Hessian where closed, kappa w (n n^T + phi d2 phi), the
 distance's curvature d2 phi from the search (0 beside a straight segment), plus the friction's w t'(g) T T^T (the
-turning of T left out). A node's terms couple its two dofs with the axial dofs of its cone's interface nodes
+turning of T left out). A node's terms couple its dofs (3 in 3-D) with the axial dofs of its cone's interface nodes
 (through t_c), so the matrix pattern is set once, whatever the node slides past.
 
 The unilateral models default to an augmented Lagrangian (``effects.cone_contact_method``; Wriggers 2006, section

@@ -121,14 +121,18 @@ def project(points: np.ndarray, outline: list) -> Projection:
     ``corner``: the nearest point is a corner (an end of its segment) off the point.
     ``curvature`` (1/mm): the signed distance's Hessian is curvature (I - n n^T): 0 beside a straight
     segment, +-1 / (distance to the centre) beside an arc (+ where the cone is convex), sign / distance off
-    a corner.
+    a corner. The sign is the polygon's inside test (:func:`_polygon`) but beside an arc, where it is the arc's own
+    side: the polygon's chords cut inside a convex arc by up to its sagitta (0.05 um for a 0.05 mm fillet), and a
+    node pressed into the arc by less read as outside, its distance and contact force flipping sign as it crossed
+    a chord (a sliding cone's 3-D run stopped on that jump at 0.24 N). Within ON_CORNER_MM of the arc (a mesh node
+    on a fillet, to rounding) the polygon's reading is kept: the results before were computed with it.
     """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     n = len(points)
     segments, poly, ccw, signs = _prepared(_key(outline))
     best = np.full(n, np.inf)
     out = {"s": np.zeros(n), "near": np.zeros((n, 2)), "tangent": np.zeros((n, 2)),
-           "end": np.zeros(n, bool), "curvature": np.zeros(n)}
+           "end": np.zeros(n, bool), "curvature": np.zeros(n), "arc": np.zeros(n, bool), "in_arc": np.zeros(n, bool)}
     start = 0.0
     for (kind, pts), convex in zip(segments, signs):
         near, s, tangent, length, end = _line(points, *pts) if kind == "line" else _arc(points, *pts)
@@ -137,15 +141,19 @@ def project(points: np.ndarray, outline: list) -> Projection:
         best[closer] = dist[closer]
         out["s"][closer], out["near"][closer] = start + s[closer], near[closer]
         out["tangent"][closer], out["end"][closer] = tangent[closer], end[closer]
+        out["arc"][closer] = kind == "arc"
         if kind == "arc":  # the distance to a circle bends by 1 / (distance to its centre): + convex, - concave
-            out["curvature"][closer] = convex / np.maximum(np.linalg.norm(points - pts[1], axis=1), 1e-300)[closer]
+            to_centre = np.linalg.norm(points - pts[1], axis=1)
+            out["curvature"][closer] = convex / np.maximum(to_centre, 1e-300)[closer]
+            out["in_arc"][closer] = ((to_centre < np.linalg.norm(pts[0] - pts[1])) == (convex > 0))[closer]
         else:
             out["curvature"][closer] = 0.0
         start += length
     turned = np.stack([out["tangent"][:, 1], -out["tangent"][:, 0]], axis=1)  # the tangent turned clockwise
     outward = turned if ccw else -turned
-    sign = np.where(_inside(points, poly), -1.0, 1.0)
     corner = out["end"] & (best > ON_CORNER_MM)
+    beside_arc = out["arc"] & ~corner & (best > ON_CORNER_MM)  # the arc's own side, not its chords' (on it: either)
+    sign = np.where(np.where(beside_arc, out["in_arc"], _inside(points, poly)), -1.0, 1.0)
     offset = points - out["near"]
     normal = np.where(corner[:, None], sign[:, None] * offset / np.maximum(best, 1e-300)[:, None], outward)
     curvature = np.where(corner, sign / np.maximum(best, 1e-300), out["curvature"])

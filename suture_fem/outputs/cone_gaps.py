@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from suture_fem.geometry import regions
 from suture_fem.support import compat
 
 #: A node counts as separated when its gap exceeds this (mm): 0.1 um, far below an element (50-150 um) and
@@ -23,7 +24,8 @@ SEPARATION_MM = 1e-4
 def cone_nodes(physics: Any, nodes: np.ndarray) -> dict[str, np.ndarray]:
     """``cone_gap``, ``cone_slip`` (mm) at the interface output's owned ``nodes`` (0 off the pairs; collective)."""
     contact = physics.cone_contact
-    profile = contact.profile(compat.function_vector(physics.state))
+    found = contact.search(compat.function_vector(physics.state))  # the gap phi (positive: open), the slip g
+    profile = {"gap_mm": found["phi"] / regions.MM, "slip_mm": found["g"] / regions.MM}
     where = {int(n): k for k, n in enumerate(contact.nodes) if contact.surface[k]}  # the cones' own surfaces
     index = np.array([where.get(int(n), -1) for n in nodes], dtype=np.int64)
     paired = index >= 0

@@ -46,6 +46,21 @@ def test_a_point_on_the_outline_has_the_faces_normal_and_an_arc_gives_its_radius
     assert list(inside(np.array([[0.5, 0.5], [1.5, 0.5], [0.2, 0.9]]), disc)) == [True, False, True]
 
 
+
+def test_a_point_between_an_arcs_chord_and_the_arc_reads_inside_and_its_distance_is_continuous():
+    """The inside test's polygon cuts an arc by 16 chords; beside the arc its own side decides the sign."""
+    disc = [("line", ((0.0, 0.0), (1.0, 0.0))), ("arc", ((1.0, 0.0), (0.0, 0.0), (0.0, 1.0))),
+            ("line", ((0.0, 1.0), (0.0, 0.0)))]
+    half_chord = 0.5 * (math.pi / 2) / 16  # the middle of the first chord is at this angle, 1 - cos(it) inside
+    sagitta = 1.0 - math.cos(half_chord)
+    radii = 1.0 - np.array([0.9, 0.5, 0.1, -0.1]) * sagitta  # three between chord and arc, one outside
+    points = np.stack([radii * math.cos(half_chord), radii * math.sin(half_chord)], axis=1)
+    assert not inside(points[:3], disc).any()  # the polygon's reading
+    assert project(points, disc).distance == pytest.approx(radii - 1.0, abs=1e-15)
+    crossing = np.stack([np.full(5, math.cos(half_chord)), math.sin(half_chord) + np.linspace(-1e-9, 1e-9, 5)], 1)
+    assert (project(crossing * (1.0 - 0.5 * sagitta), disc).distance < 0).all()
+
+
 @pytest.mark.parametrize("orientation", ["apex_to_pull", "base_to_pull"])
 def test_a_cone_closed_to_the_axis_holds_the_track_off_its_side_on_the_thread(orientation):
     """With the thread free, the track's tissue (r = r_t) is searched against the cone and the thread as one body.

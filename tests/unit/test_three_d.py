@@ -33,6 +33,7 @@ def test_a_plain_3d_scene_passes_the_checks():
     check_three_d(Scene.from_values({**THREE_D, **built}))  # and these, since 2026-12
     rounded_rims_frictionless_thread = {"geometry.cone_fillet_mm": 0.04, "effects.thread_interface": "frictionless"}
     check_three_d(Scene.from_values({**THREE_D, **rounded_rims_frictionless_thread}))
+    check_three_d(Scene.from_values({**THREE_D, "effects.cone_interface": "sliding"}))  # the sliding cones
 
 
 @pytest.mark.parametrize("key", [k for k, _, _ in UNSUPPORTED])

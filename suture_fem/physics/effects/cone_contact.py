@@ -1,50 +1,50 @@
 """Contact of the tissue with the cones' surfaces (``effects.cone_interface`` = "sliding", "frictionless", "coulomb").
 
 The mesh gives the tissue its own nodes on every cone surface (facets tagged ``cone_contact``;
-:func:`~suture_fem.geometry.gmsh_model.split_interfaces`). The cone is nearly rigid (its modulus is five
-orders above the tissue's), so its surface now is taken as its reference outline moved axially by the
-cone's mean axial displacement t_c (the mean u_z of its interface nodes; exactly its motion for the rigid
-suture). The contact search follows each tissue node a wherever it slides: at every residual and
-Jacobian evaluation its position relative to the cone, y = X_a + u_a - t_c e_z, is projected onto the
-outline (:func:`~suture_fem.geometry.outline.project`: the nearest point, arc length s, signed distance
-phi, positive outside, outward normal n and tangent T). The search's outline has each sharp convex
-corner off the thread rounded by a tenth of the suture's element size, less on a short edge
-(:meth:`~suture_fem.geometry.section.Cone.rounded`; the fillets kept): at a sharp corner the normal
-jumps and a node pressed into it has two equilibria (the same scene gave 4.908 and 4.945 mm on one and
-two ranks before); the rounding vanishes with the mesh. Distances are measured from each node's reference
-distance (zero but at a rounded corner, where the node starts a few um off the arc): at rest every node
-touches and nothing is pressed. With w the node's lumped 2 pi r-weighted area
-(m^2) and kappa the frictionless thread's penalty stiffness
+:func:`~suture_fem.geometry.gmsh_model.split_interfaces`). The cone is nearly rigid (its modulus is five orders
+above the tissue's), so its surface now is taken as its reference outline moved axially by the cone's mean axial
+displacement t_c (the mean u_z of its interface nodes; exactly its motion for the rigid suture). The contact search
+follows each tissue node a wherever it slides: at every residual and Jacobian evaluation its position relative to
+the cone, y = X_a + u_a - t_c e_z, is projected onto the outline (:func:`~suture_fem.geometry.outline.project`: the
+nearest point, arc length s, signed distance phi, positive outside, outward normal n and tangent T). The search's
+outline has each sharp convex corner off the thread rounded by a tenth of the suture's element size, less on a short
+edge (:meth:`~suture_fem.geometry.section.Cone.rounded`; the fillets kept): at a sharp corner the normal jumps and a
+node pressed into it has two equilibria (the same scene gave 4.908 and 4.945 mm on one and two ranks before); the
+rounding vanishes with the mesh. Distances are measured from each node's reference distance (zero but at a rounded
+corner, where the node starts a few um off the arc): at rest every node touches and nothing is pressed. With w the
+node's lumped 2 pi r-weighted area (m^2) and kappa the frictionless thread's penalty stiffness
 (:func:`~suture_fem.physics.effects.contact.penalty_stiffness`), the potential is
 
     sliding:        sum_a 1/2 kappa w phi^2        (bilateral: the tissue stays on the cone's surface)
     frictionless:   sum_a 1/2 kappa w <-phi>^2     (unilateral: the tissue may lift off, not enter)
     coulomb:        frictionless + sum_a w b s ln cosh(g / s),   g = s(y) - s(X_a),
 
-p = kappa <-phi> the contact pressure and g the total slip along the outline (a deformation theory, as
-for the thread). Coulomb's bound b is frozen during a Newton solve and moved to mu p between solves, as
-for the thread (:class:`~suture_fem.physics.effects.friction.SlipBound`). The friction acts along T, the
-tangent at the nearest point: exactly the slip's gradient beside a straight segment, and within phi / R
-of it beside an arc of radius R (off a corner the nearest point, and so s, stays put while T does not;
-taking the arc length's own gradient there left the friction's Hessian a term of order t / R short, and
-the Coulomb cones stopped at 0.2-0.3 N instead of reaching 4 N). The Jacobian is the
-penalty's exact Hessian where closed, kappa w (n n^T + phi d2 phi), the distance's curvature d2 phi
-from the search (0 beside a straight segment), plus the friction's w t'(g) T T^T (the turning of T
-left out). A node's terms couple its two dofs with the axial dofs of its cone's interface nodes
+p = kappa <-phi> the contact pressure and g the total slip along the outline (a deformation theory, as for the
+thread). Coulomb's bound b is frozen during a Newton solve and moved to mu p between solves, as for the thread
+(:class:`~suture_fem.physics.effects.friction.SlipBound`). The friction acts along T, the tangent at the nearest
+point: exactly the slip's gradient beside a straight segment, and within phi / R of it beside an arc of radius R
+(off a corner the nearest point, and so s, stays put while T does not; taking the arc length's own gradient there
+left the friction's Hessian a term of order t / R short, and the Coulomb cones stopped at 0.2-0.3 N instead of
+reaching 4 N). The Jacobian is the penalty's exact Hessian where closed, kappa w (n n^T + phi d2 phi), the
+distance's curvature d2 phi from the search (0 beside a straight segment), plus the friction's w t'(g) T T^T (the
+turning of T left out). A node's terms couple its dofs (3 in 3-D) with the axial dofs of its cone's interface nodes
 (through t_c), so the matrix pattern is set once, whatever the node slides past.
 
-The unilateral models default to an augmented Lagrangian (``effects.cone_contact_method``; Wriggers 2006,
-section 6.3): 1/2 kappa <-phi>^2 becomes (<lambda - kappa phi>^2 - lambda^2) / (2 kappa), so
-p = <lambda - kappa phi>, with the multiplier lambda frozen during a Newton solve and moved toward p
-between solves (:meth:`ConeContact.update`, Aitken-relaxed; the state follows an update by a chord step where
-:func:`~.fixed_point.settle` allows) until every pressed node is within ``effects.contact_penetration_mm``
-of its cone. The Hessian is then kappa w n n^T where pressed minus w p d2 phi; with lambda = 0 the penalty's.
+The unilateral models default to an augmented Lagrangian (``effects.cone_contact_method``; Wriggers 2006, section
+6.3): 1/2 kappa <-phi>^2 becomes (<lambda - kappa phi>^2 - lambda^2) / (2 kappa), so p = <lambda - kappa phi>, with
+the multiplier lambda frozen during a Newton solve and moved toward p between solves (:meth:`ConeContact.update`,
+Aitken-relaxed; the state follows an update by a chord step where :func:`~.fixed_point.settle` allows) until every
+pressed node is within ``effects.contact_penetration_mm`` of its cone. The Hessian is then kappa w n n^T where
+pressed minus w p d2 phi; with lambda = 0 the penalty's.
 
-Left out: the cone's own deformation in the search (a cone passes at most 0.8 N in the runs of
-docs/contact.md: its wall's axial strain stays below 0.2 %, a few um over the cone; the peak contact
-pressure, about 1 MPa, strains it radially by under 1e-3). The terms are assembled by
-hand into the full residual and Jacobian before the solver's reduction, like the thread's friction
-(UFL forms cannot couple nodes that share no cell).
+Left out: the cone's own deformation in the search (a cone passes at most 0.8 N in the runs of docs/contact.md: its
+wall's axial strain stays below 0.2 %, a few um over the cone; the peak contact pressure, about 1 MPa, strains it
+radially by under 1e-3). The terms are assembled by hand into the full residual and Jacobian before the solver's
+reduction, like the thread's friction (UFL forms cannot couple nodes that share no cell).
+
+In 3-D (the half model, the thread along y) a node's place y is (sqrt(x^2 + z^2), y - t_c) in the meridian plane, its
+gradient and Hessian carried back to its three dofs with r's own curvature, the hoop term (:mod:`.cone_frame`); w is
+weighted by the half model's 2 instead of 2 pi r.
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import regions
 from suture_fem.geometry.outline import deepest_on_way, project
+from suture_fem.physics.effects import cone_frame
 from suture_fem.physics.effects.cone_pairs import cone_pairs
 from suture_fem.physics.effects.contact import cones_augmented, penalty_stiffness
 from suture_fem.physics.effects.fixed_point import Aitken, update_norms
@@ -84,12 +85,13 @@ class ConeContact(SlipBound):
     """The cones' contact terms (see the module docstring).
 
     Attributes:
-        pairs: the tissue's cone-contact nodes owned on this rank; nodes: V's local node a of each;
-        dofs: (pairs, 2) global dofs (u_r(a), u_z(a)); X: (pairs, 2) reference positions (mm); cone: (pairs,)
-        the cone of each; s0, phi0: (pairs,) the reference arc length and distance (mm); weight: (pairs,) m^2;
-        cone_dofs: per cone, the global axial dofs of its interface nodes (every rank's); outlines: per cone, its
-        outline; kappa (Pa/m); model; mu (0: no friction); slip: s (m); bound: (pairs,) the frozen slip limit (Pa);
-        surface: (pairs,) True on a cone's surface, False for the track's tissue (the thread free in its track).
+        pairs: the tissue's cone-contact nodes owned on this rank; nodes: V's local node a of each; dofs: (pairs, dim)
+        global dofs (u_r(a), u_z(a); 3-D u_x, u_y, u_z); position: (pairs, dim) reference positions (mm); X: (pairs,
+        2) their places (r, axial) (mm); cone: (pairs,) the cone of each; s0, phi0: (pairs,) the reference arc length
+        and distance (mm); weight: (pairs,) m^2; cone_dofs: per cone, the global axial dofs of its interface nodes
+        (every rank's); outlines: per cone, its outline; kappa (Pa/m); model; mu (0: no friction); slip: s (m);
+        bound: (pairs,) the frozen slip limit (Pa); surface: (pairs,) True on a cone's surface, False for the
+        track's tissue (the thread free in its track).
     """
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
@@ -111,7 +113,8 @@ class ConeContact(SlipBound):
         self._reach = 0.5 * float(wall_m) - self.depth_limit  # a shorter move from the limit cannot pass the mid-plane
         self.convexified = convexified and not self.bilateral
         self.mu, self.slip = (float(mu) if model == "coulomb" else 0.0), float(slip_m)
-        self.nodes, self.dofs, self.X = pairs["nodes"], pairs["dofs"], pairs["X"]
+        self.nodes, self.dofs, self.position = pairs["nodes"], pairs["dofs"], pairs["X"]
+        self.X = cone_frame.place(self.position)[0]
         self.cone, self.weight, self.outlines = pairs["cone"], pairs["weight"], pairs["outlines"]
         self.cone_dofs: list[np.ndarray] = pairs["cone_dofs"]
         self.corner_mm = float(pairs["corner_mm"])
@@ -163,14 +166,16 @@ class ConeContact(SlipBound):
         values = self._local.getArray(readonly=True)
         if self._found is not None and np.array_equal(values, self._found[0]):  # the same state: the same places
             return self._found[1]
-        u = values[: 2 * self.pairs].reshape(self.pairs, 2)
-        at, t_c = 2 * self.pairs, []
+        dim = self.dofs.shape[1]
+        u = values[: dim * self.pairs].reshape(self.pairs, dim)
+        at, t_c = dim * self.pairs, []
         for dofs in self.cone_dofs:
             t_c.append(float(np.mean(values[at: at + len(dofs)])) if len(dofs) else 0.0)
             at += len(dofs)
-        y = self.X + (u - np.stack([np.zeros(self.pairs), np.asarray(t_c)[self.cone]], axis=1)) / regions.MM
+        y, e_r = cone_frame.moved(self.position, u, np.asarray(t_c)[self.cone], regions.MM)  # 3-D: y = (r, axial)
         out = {"phi": np.zeros(self.pairs), "g": np.zeros(self.pairs), "n": np.zeros((self.pairs, 2)),
-               "T": np.zeros((self.pairs, 2)), "curvature": np.zeros(self.pairs), "t_c": np.asarray(t_c), "y": y}
+               "T": np.zeros((self.pairs, 2)), "curvature": np.zeros(self.pairs), "t_c": np.asarray(t_c), "y": y,
+               **({} if e_r is None else {"e_r": e_r})}  # 3-D: each node's unit vector off the axis
         for sel, outline in zip(self._of_cone, self.outlines):
             proj = project(y[sel], outline)
             out["phi"][sel] = (proj.distance - self.phi0[sel]) * regions.MM
@@ -280,7 +285,7 @@ class ConeContact(SlipBound):
         return float(self.comm.allreduce(float(np.sum(value))))
 
     def _gradient(self, u_vec: Any) -> np.ndarray:
-        """Per pair: dE/dy (pairs, 2), N."""
+        """Per pair: dE/dy (pairs, 2), N; y the node's place in the meridian plane (:mod:`.cone_frame`)."""
         found = self.search(u_vec)
         grad = -(self.weight * self._pressure(found["phi"])[0])[:, None] * found["n"]
         if self.mu > 0.0:
@@ -288,7 +293,7 @@ class ConeContact(SlipBound):
         return grad
 
     def _hessian(self, u_vec: Any) -> np.ndarray:
-        """Per pair: d2E/dy2 (pairs, 2, 2; the friction's turning tangent left out).
+        """Per pair: d2E/dx2 (pairs, dim, dim; the friction's turning tangent left out), x the node's position.
 
         Convexified (P2, unilateral): -w p d2(phi) is kept only where it stiffens; beside a convex arc or
         corner it is a negative tangential stiffness -w p / R, which at P2 sent Newton down a direction of
@@ -304,16 +309,18 @@ class ConeContact(SlipBound):
         hess = (self.kappa * self.weight * closed)[:, None, None] * nn + bend
         if self.mu > 0.0:
             hess += (self.weight * self._law(found["g"])[1])[:, None, None] * T[:, :, None] * T[:, None, :]
-        return hess
+        if "e_r" not in found:  # 2-D: the place is the position
+            return hess
+        return cone_frame.hessian(hess, self._gradient(u_vec), found["e_r"], found["y"][:, 0] * regions.MM)
 
     def add_residual(self, u_vec: Any, b: Any) -> None:
         """Add the terms' gradient to the full residual ``b`` (assembled; collective).
 
-        Node a receives dE/dy; the cone's axial dofs share -dE/dy_z equally (y moves by -t_c e_z).
+        Node a receives dE/dx; the cone's axial dofs share -dE/dx_z equally (x moves by -t_c e_z).
         """
         grad = self._gradient(u_vec)
         rows = [self.dofs.ravel()]
-        values = [grad.ravel()]
+        values = [cone_frame.gradient(grad, self.search(u_vec).get("e_r")).ravel()]
         for c, dofs in enumerate(self.cone_dofs):
             if len(dofs):
                 rows.append(dofs)
@@ -323,28 +330,16 @@ class ConeContact(SlipBound):
         b.assemble()
 
     def add_jacobian(self, u_vec: Any, A: Any) -> None:
-        """Add the terms' Hessian (symmetric) to the full Jacobian ``A`` (assembled; collective)."""
-        hess = self._hessian(u_vec)
-        self._add_blocks(A, hess)
+        """Add the terms' Hessian (symmetric) to the full Jacobian ``A`` (assembled; collective).
 
-    def _add_blocks(self, A: Any, hess: np.ndarray) -> None:
-        """K_aa = H, K_ab = -H[:, z] alpha, K_bb = sum_a H_zz alpha alpha^T for every pair's H (alpha = 1 / n_b)."""
-        self._layout.add(A, hess)
+        K_aa = H, K_ab = -H[:, z] alpha, K_bb = sum_a H_zz alpha alpha^T for every pair's H (alpha = 1 / n_b).
+        """
+        self._layout.add(A, self._hessian(u_vec))
         A.assemble()
 
     def extend_pattern(self, A: Any) -> None:
         """Make room in A, once, for every coupling the terms add (:func:`~.pattern.widen`)."""
         widen(A, *self._layout.entries())
-
-    def profile(self, u_vec: Any) -> dict[str, np.ndarray]:
-        """Per pair (this rank's; collective): ``gap_mm`` and ``slip_mm``.
-
-        The gap is phi (positive: open), the slip g (how far along the cone's outline the tissue node has
-        moved, relative to the cone). The interface output gives the pressure and shear from the tissue's
-        own residual.
-        """
-        found = self.search(u_vec)
-        return {"gap_mm": found["phi"] / regions.MM, "slip_mm": found["g"] / regions.MM}
 
     def status(self, u_vec: Any) -> dict[str, Any]:
         """How many nodes on the cones are closed and stick, closed and slip, open; of the track's, how many pressed.

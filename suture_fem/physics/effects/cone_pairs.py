@@ -2,8 +2,8 @@
 
 :func:`cone_pairs` reads them off a built Physics whose mesh has the cones' surfaces split
 (:func:`~suture_fem.geometry.gmsh_model.split_interfaces`): each owned tissue node on a facet tagged
-``cone_contact``, its cone, its 2 pi r-weighted lumped area, and every cone's axial dofs on its interface,
-with each cone's outline rounded at its sharp convex corners for the search
+``cone_contact``, its cone, its 2 pi r-weighted lumped area (3-D: weighted by the half model's 2), and every cone's
+axial dofs on its interface, with each cone's outline rounded at its sharp convex corners for the search
 (:mod:`~suture_fem.physics.effects.cone_contact`) and closed to the axis: the cone and the thread inside it
 searched as one body. The cone's own side on the thread faces no tissue, yet a node squeezed toward the
 thread beside the apex cap found it nearer than the cap's face (a tied thread's sliding cone at 3 N: two cap
@@ -29,9 +29,11 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
+from suture_fem.geometry.outline import meridian
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
 from suture_fem.physics.effects.friction import global_dofs
+from suture_fem.physics.kinematics import HALF_MODEL_WEIGHT
 from suture_fem.support import compat
 
 #: The search rounds each sharp corner of a cone (off the thread) by this fraction of the suture's element size.
@@ -53,11 +55,12 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
     on_cones = mark_facet_nodes(V, fdim, facets) & ~suture  # a node's facets may be on another rank
     nodes = np.flatnonzero(on_cones)
     nodes = nodes[nodes < owned]
-    v = ufl.TestFunction(V)
-    x = ufl.SpatialCoordinate(mesh)
+    v, x, dim = ufl.TestFunction(V), ufl.SpatialCoordinate(mesh), mesh.geometry.dim
+    weighted = v[1] * 2 * math.pi * x[0] if dim == 2 else v[1] * HALF_MODEL_WEIGHT  # the 3-D half model's 2
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags)
-    area = _assembled(v[1] * 2 * math.pi * x[0] * ds(int(Facet.CONE_CONTACT)), owned)[:, 1]  # the lumped area
-    xy = V.tabulate_dof_coordinates()[:, :2] / regions.MM
+    area = _assembled(weighted * ds(int(Facet.CONE_CONTACT)), owned, dim)[:, 1]  # the lumped area
+    xyz = V.tabulate_dof_coordinates()[:, :dim] / regions.MM
+    xy = meridian(xyz)  # (r, axial): in 3-D (sqrt(x^2 + z^2), y)
     cones = tagged.geometry.cones
     rho = CORNER_ROUNDING * tagged.sizes.suture
     cone = _cone_of(xy[nodes], cones, tagged.geometry.z_end)
@@ -67,7 +70,7 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
     if free:  # the thread free in its track: its tissue joins the search
         track = np.flatnonzero(mark_facet_nodes(V, fdim, track_facets) & ~suture & ~on_cones)
         track = track[track < owned]
-        track_area = _assembled(v[1] * 2 * math.pi * x[0] * ds(int(Facet.TRACK)), owned)[:, 1]
+        track_area = _assembled(weighted * ds(int(Facet.TRACK)), owned, dim)[:, 1]
         nodes = np.concatenate([nodes, track])
         cone = np.concatenate([cone, _cone_behind(xy[track], cones)])
         area[track] = track_area[track]
@@ -80,8 +83,8 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
     axial = global_dofs(physics, surface, 1)
     cone_dofs = [np.concatenate(physics.comm.allgather(axial[of_surface == c])).astype(np.int64)
                  for c in range(len(cones))]
-    dofs = np.stack([global_dofs(physics, nodes, 0), global_dofs(physics, nodes, 1)], axis=1)
-    return {"nodes": nodes, "dofs": dofs, "X": xy[nodes], "cone": cone, "weight": area[nodes], "surface": own,
+    dofs = np.stack([global_dofs(physics, nodes, c) for c in range(dim)], axis=1)
+    return {"nodes": nodes, "dofs": dofs, "X": xyz[nodes], "cone": cone, "weight": area[nodes], "surface": own,
             "cone_dofs": cone_dofs, "corner_mm": rho,
             "outlines": [c.rounded(rho, tagged.geometry.r_thread, to_axis=True) for c in cones]}
 
@@ -103,10 +106,10 @@ def _cone_behind(xy_mm: np.ndarray, cones: list) -> np.ndarray:
     return np.argsort(lower)[np.maximum(behind, 0)].astype(np.int64)
 
 
-def _assembled(linear: Any, owned: int) -> np.ndarray:
-    """A vector form's owned nodal values, (owned, 2) (collective)."""
+def _assembled(linear: Any, owned: int, dim: int) -> np.ndarray:
+    """A vector form's owned nodal values, (owned, dim) (collective)."""
     b = dolfinx.fem.petsc.assemble_vector(compat.form(linear))
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    values = b.array[: 2 * owned].reshape(-1, 2).copy()
+    values = b.array[: dim * owned].reshape(-1, dim).copy()
     b.destroy()
     return values

@@ -53,24 +53,26 @@ def widen(A: Any, rows: np.ndarray, cols: np.ndarray) -> None:
 class ConeLayout:
     """The cones' Hessian entries as compressed rows (global dofs), laid out once (:class:`ConeContact`'s).
 
-    For each cone with pairs k (dofs a_k = (u_r, u_z)) and interface axial dofs b (n_b of them, alpha = 1 / n_b):
+    For each cone with pairs k (dofs a_k = (u_r, u_z); 3-D (u_x, u_y, u_z)) and interface axial dofs b (n_b of them,
+    alpha = 1 / n_b; the axial component is the second in both):
     K_aa = H_k, K_ab = K_ba^T = -H_k[:, z] alpha, K_bb = sum_k H_k[z, z] alpha^2 (every b, b').
     """
 
     def __init__(self, dofs: np.ndarray, cone: np.ndarray, cone_dofs: list[np.ndarray]):
-        """``dofs``: (pairs, 2) global dofs; ``cone``: each pair's cone; ``cone_dofs``: per cone, its axial dofs."""
+        """``dofs``: (pairs, dim) global dofs; ``cone``: each pair's cone; ``cone_dofs``: per cone, its axial dofs."""
         self.parts = []  # per cone: (its pairs, its axial dofs)
         rowmap, lengths, cols = [], [], []
+        d = dofs.shape[1]
         for c, b in enumerate(cone_dofs):
             sel = np.flatnonzero(cone == c)
             b = np.asarray(b, dtype=np.int64)
             if not len(sel):
                 continue
             self.parts.append((sel, b))
-            a = dofs[sel].astype(np.int64)  # (P, 2)
-            rowmap.append(a.ravel())  # a pair's rows: its own two dofs, then every b
-            lengths.append(np.full(a.size, 2 + len(b)))
-            cols.append(np.concatenate([np.repeat(a, 2, axis=0), np.tile(b, (a.size, 1))], axis=1).ravel())
+            a = dofs[sel].astype(np.int64)  # (P, d)
+            rowmap.append(a.ravel())  # a pair's rows: its own d dofs, then every b
+            lengths.append(np.full(a.size, d + len(b)))
+            cols.append(np.concatenate([np.repeat(a, d, axis=0), np.tile(b, (a.size, 1))], axis=1).ravel())
             if len(b):  # each b's row: every pair's dofs, then every b
                 rowmap.append(b)
                 lengths.append(np.full(len(b), a.size + len(b)))
@@ -81,12 +83,12 @@ class ConeLayout:
         self.cols = np.concatenate(cols or [np.zeros(0, np.int64)]).astype(PETSc.IntType)
 
     def values(self, hess: np.ndarray) -> np.ndarray:
-        """The entries, in the layout's order, of every pair's Hessian ``hess`` ((pairs, 2, 2))."""
+        """The entries, in the layout's order, of every pair's Hessian ``hess`` ((pairs, d, d))."""
         out = []
         for sel, b in self.parts:
             H = hess[sel]
             alpha = 1.0 / max(len(b), 1)
-            couple = -H[:, :, 1] * alpha  # (P, 2): K_ab's row of each pair's dof
+            couple = -H[:, :, 1] * alpha  # (P, d): K_ab's row of each pair's dof
             out.append(np.concatenate([H, np.repeat(couple[:, :, None], len(b), axis=2)], axis=2).ravel())
             if len(b):
                 row = np.concatenate([couple.ravel(), np.full(len(b), float(np.sum(H[:, 1, 1])) * alpha * alpha)])

@@ -56,11 +56,15 @@ class Cone:
         return out
 
     def rounded(self, radius: float, r_thread: float, to_axis: bool = False) -> list[Segment]:
-        """The outline with every sharp convex corner off the thread rounded by ``radius`` (the fillets kept).
+        """The outline with every sharp corner off the thread rounded by at most ``radius`` (the fillets kept).
 
         The contact search's outline: a convex corner's outward normal jumps, so a node pressed into it
-        would have two equilibria; a rounded one turns the normal continuously. A re-entrant corner stays
-        sharp (rounding it would put cone inside the tissue's nodes there).
+        would have two equilibria; a rounded one turns the normal continuously. A re-entrant corner (a hollow
+        cone's cavity floor meeting its inner flank) is rounded too, its arc within 0.225 of its shorter real
+        edge from it (the tissue's faces, not the search's floor extended to the axis): the tissue node in that corner,
+        pressed by both faces, otherwise had a normal that jumped between them at zero distance, and Newton
+        found no equilibrium when a multiplier held it there. The fillet puts cone a few um inside that node at
+        rest; its gap is measured from there (``phi0``).
 
         ``to_axis``: the cone's side on the thread moved to the axis (its points at r = r_thread to r = 0): the
         cone and the thread inside it as one body, the contact search's outline. No tissue faces the cone's own
@@ -72,13 +76,15 @@ class Cone:
             pts = [(0.0 if abs(r - r_thread) <= 1e-9 else r, z) for r, z in pts]
         area = sum(p[0] * q[1] - q[0] * p[1] for p, q in zip(pts, pts[1:] + pts[:1]))
 
-        def convex(i: int) -> bool:
+        def turn(i: int) -> float:  # > 0 at a convex corner, < 0 at a re-entrant one
             a, b, c = pts[i - 1], pts[i], pts[(i + 1) % len(pts)]
-            return ((b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])) * area > 0
+            return ((b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])) * math.copysign(1.0, area)
 
-        off = [i for i, p in enumerate(pts) if p[0] > r_thread + 1e-9 and (i in self.radii or convex(i))]
+        off = [i for i, p in enumerate(pts) if p[0] > r_thread + 1e-9 and (i in self.radii or turn(i) > 0.0)]
         fit = {i: min(radius, 0.5 * _max_radius(pts, i)) for i in off}  # short edges get smaller ones
-        return _outline(pts, {i: self.radii.get(i, fit[i]) for i in off})
+        inner = [i for i, p in enumerate(pts) if p[0] > r_thread + 1e-9 and i not in self.radii and turn(i) < -1e-12]
+        fit.update({i: min(radius, 0.5 * _max_radius(self.points, i)) for i in inner})  # the real edges
+        return _outline(pts, {i: self.radii.get(i, fit[i]) for i in off + inner})
 
 
 @dataclass(frozen=True)

@@ -240,6 +240,21 @@ def test_with_nothing_tied_the_tissue_resists_the_cone_and_the_thread_passes_not
     assert nothing_tied["effects"]["interfaces"]["cone_contact_track_nodes"] > 50
 
 
+def test_a_hollow_cone_pulled_base_first_with_nothing_tied_presses_its_cavity_and_goes_on(tmp_path_factory):
+    """Base first, the cavity's floor and inner flank both press the tissue node in their corner.
+
+    With that corner sharp in the search, the node's normal jumped between the two faces at zero distance and
+    the end stopped at 0.064 mm (exit 3); rounded, the end reaches 0.3 mm, and the tissue resists the cone.
+    """
+    moved = [*NOTHING_TIED[:-2], 'geometry.cone_orientation="base_to_pull"', "loading.displacement_mm=0.3",
+             "loading.report_displacements_mm=[]"]
+    result = _run(tmp_path_factory, "base_first", moved)
+    last = result["at_forces"][-1]
+    assert result["status"] == "converged" and result["applied_displacement_mm"] == pytest.approx(0.3)
+    assert last["force_n"] > 1e-3  # N: 3.1 mN
+    assert last["load_share_n"]["cone_1"] == pytest.approx(last["force_n"], rel=1e-8)
+
+
 def test_with_nothing_tied_two_ranks_give_the_serial_answer(tmp_path_factory, nothing_tied):
     par = _run(tmp_path_factory, "nothing_tied2", NOTHING_TIED, ranks=2)
     a, b = nothing_tied["at_forces"][-1], par["at_forces"][-1]

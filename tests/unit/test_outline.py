@@ -112,3 +112,32 @@ def test_a_way_through_a_thin_wall_is_seen_half_the_wall_deep_however_it_ends():
     assert project(end[2:3], wall).distance[0] == pytest.approx(-0.02)  # what the end alone reads
     # an offset (a node starting off a rounded corner) is taken off each distance
     assert deepest_on_way(start[:1], end[:1], wall, offset=np.array([0.01]))[0] == pytest.approx(0.11)
+
+
+def test_the_cavity_floors_corner_is_rounded_within_the_floor_and_turns_the_normal_continuously():
+    """A hollow cone's cavity floor meets its inner flank in a re-entrant corner, where a tissue node sits.
+
+    Pulled base first, both faces press that node; with the corner sharp its normal jumped between theirs
+    (82 degrees) across the bisector at zero distance. Rounded (within the floor's real 28 um, not the
+    search's floor extended to the axis), the normal turns continuously all round the node.
+    """
+    from suture_fem.geometry.section import Geometry
+    from suture_fem.scene import Scene
+
+    scene = Scene.builtin("paper").with_values({"geometry.cones": 1, "geometry.cone_orientation": "base_to_pull"})
+    g = Geometry.from_section(scene.geometry)
+    cone, r_t = g.cones[0], g.r_thread
+    corner = cone.points[4]  # the cavity floor's outer end, on the inner flank
+    floor_z = cone.points[5][1]
+    assert corner[1] == pytest.approx(floor_z) and corner[0] - r_t == pytest.approx(0.0276, abs=1e-4)
+    outline = cone.rounded(0.1, r_t, to_axis=True)
+    arcs = [seg for kind, seg in outline if kind == "arc" and abs(seg[2][1] - floor_z) < 1e-12]
+    assert len(arcs) == 1
+    a, c, b = arcs[0]
+    assert r_t < b[0] < corner[0] and math.dist(b, corner) <= 0.225 * (corner[0] - r_t) + 1e-12  # on the real floor
+    angles = np.linspace(0.0, 2.0 * math.pi, 145)
+    for radius in (0.001, 0.003):  # inside and beyond the fillet's depth at the corner (2.3 um)
+        ring = np.array(corner) + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        n = project(ring, outline).normal
+        turn = np.degrees(np.arccos(np.clip(np.sum(n[1:] * n[:-1], axis=1), -1.0, 1.0)))
+        assert turn.max() < 5.0  # 2.5 degrees apart round the node: 1.2 at most; the sharp corner jumped 82

@@ -8,7 +8,7 @@ table (the force at 1-4 mm, each cone's share at the last state, Newton iteratio
 child process) and writes JSON.
 
     .venv/bin/python benchmarks/cone_orientation.py [--out benchmarks/out/cone_orientation] [--cones 1,4]
-        [--kinds full,hollow] [--interfaces tied,frictionless,coulomb]
+        [--kinds full,hollow] [--orientations apex_to_pull,base_to_pull] [--interfaces tied,frictionless,coulomb]
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ def case(cones: int, kind: str, orientation: str, interface: str, out: Path) -> 
     reports = r["at_forces"]
     row.update(status=r["status"], reached_mm=r.get("thread_end_displacement_mm", 0.0),
                force_n=r.get("force_reached_n", 0.0),
-               newton_iterations=r["newton_iterations"], cutbacks=r["cutbacks"],
+               newton_iterations=r.get("newton_iterations", "-"), cutbacks=r.get("cutbacks", "-"),
                forces_n={f"{a['thread_end_displacement_mm']:.3g}": a["force_n"] for a in reports},
                shares_n=r.get("load_share_n"))
     if r["status"] != "converged":
@@ -88,13 +88,20 @@ def main() -> None:
     p.add_argument("--cones", default="1,4")
     p.add_argument("--kinds", default="full,hollow")
     p.add_argument("--interfaces", default="tied,frictionless,coulomb")
+    p.add_argument("--orientations", default=",".join(ORIENTATIONS))
     args = p.parse_args()
     out = Path(args.out).resolve()
-    rows = [case(int(c), k, o, i, out) for c in args.cones.split(",") for k in args.kinds.split(",")
-            for o in ORIENTATIONS for i in args.interfaces.split(",")]
-    print(table(rows))
     out.mkdir(parents=True, exist_ok=True)
-    (out / "cone_orientation.json").write_text(json.dumps(rows, indent=1))
+    rows: list[dict] = []
+    for c in args.cones.split(","):
+        for k in args.kinds.split(","):
+            for o in args.orientations.split(","):
+                for i in args.interfaces.split(","):
+                    rows.append(case(int(c), k, o, i, out))
+                    part = out / "cone_orientation.json.part"  # the rows so far, whole: a later case's crash keeps them
+                    part.write_text(json.dumps(rows, indent=1))
+                    part.replace(out / "cone_orientation.json")
+    print(table(rows))
     print(f"wrote {out / 'cone_orientation.json'}")
 
 

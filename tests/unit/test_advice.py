@@ -59,3 +59,19 @@ def test_sliding_cones_on_the_wall_guard_are_pointed_to_a_stiffer_penalty_and_on
     thread = physics(degree=1, thread=True, cones=True)
     thread.effects.cone_interface = "sliding"
     assert 'effects.thread_interface = "sliding"' in advice(thread, StopCause.INVERTED_ELEMENT)
+
+
+def test_hollow_cones_pulled_base_first_are_pointed_to_full_cones():
+    def cones(kind: str, base_first: bool, interface: str = "frictionless", track: bool = True):
+        p = physics(degree=1, thread=False, cones=interface != "tied", track=track)
+        p.effects.cone_interface = interface
+        cone = SimpleNamespace(base_z=5.54, apex_z=3.0) if base_first else SimpleNamespace(base_z=3.0, apex_z=5.54)
+        p.tagged = SimpleNamespace(geometry=SimpleNamespace(kind=kind, cones=[cone]))
+        return advice(p, StopCause.NEWTON_DIVERGENCE)
+
+    text = cones("hollow", True)
+    assert 'geometry.cone_kind = "full"' in text and "pulled base first" in text and "mesh.refinement = 1" in text
+    assert 'cone_kind = "full"' in cones("hollow", True, "coulomb")
+    for other in (cones("hollow", False), cones("full", True), cones("hollow", True, "tied"),
+                  cones("hollow", True, track=False)):  # the thread tied: these reach 4 mm
+        assert "cone_kind" not in other

@@ -118,10 +118,10 @@ def _hollow_base_first(physics: Physics) -> bool:
 
 
 def _base_first_advice() -> str:
-    return ("; with nothing tied, hollow cones pulled base first stop where the base's sharp inner rim digs into "
-            "the tissue (one cone, P1, the end moved: a hypodermis element inverting there at 2.3 mm frictionless, "
-            "3.3 mm Coulomb 0.3; at mesh.refinement = 1, 3.85 mm), while full cones (geometry.cone_kind = "
-            '"full") pulled base first reach 4 mm (docs/contact.md: Cones pulled base first)')
+    return ("; with nothing tied, hollow cones pulled base first stop on hypodermis elements inverting near the base "
+            "(one cone, P1, the end moved: at 2.3 mm frictionless, beside the base's sharp inner rim, and 3.2 mm "
+            "Coulomb 0.3; at mesh.refinement = 1 the frictionless pull reaches 3.85 mm), while full cones "
+            '(geometry.cone_kind = "full") pulled base first reach 4 mm (docs/contact.md: Cones pulled base first)')
 
 
 def _thread_advice(effects: Any) -> str:

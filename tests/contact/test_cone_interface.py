@@ -17,6 +17,7 @@ import pytest
 
 from tests.conftest import FAST, cli, run_paper, sets
 from tests.contact import split_mesh
+from tests.contact.differences import central, gradient, matches, off_the_kink
 
 SCENE = [*FAST, "geometry.cones=1", "output.quantities=[\"usum\",\"interface\"]"]
 
@@ -64,42 +65,14 @@ def test_the_cone_terms_are_the_derivatives_of_their_potential():
     contact.slip = 1e-6
     vec = compat.function_vector(physics.state)
     assert np.count_nonzero(contact.search(vec)["phi"] < 0) > 5  # some pairs closed, so the terms act
-    x0, step = vec.copy(), vec.duplicate()
+    step = vec.duplicate()
     step.setArray(1e-9 * rng.standard_normal(step.getLocalSize()))
-    grad = vec.duplicate()
-    grad.set(0.0)
-    contact.add_residual(vec, grad)
-
-    def at(h):
-        vec.waxpy(h, step, x0)
-        energy, b = contact.potential(vec), vec.duplicate()
-        b.set(0.0)
-        contact.add_residual(vec, b)
-        return energy, b
-
-    (ep, _), (em, _) = at(1.0), at(-1.0)
-    assert (ep - em) / 2 == pytest.approx(grad.dot(step), rel=1e-5)  # the friction's gradient included
+    (ep, _), (em, _) = central(contact, vec, step)
+    assert (ep - em) / 2 == pytest.approx(gradient(contact, vec).dot(step), rel=1e-5)  # the friction's gradient too
     contact.bound[:] = 0.0  # the contact alone: its Hessian is exact (the friction's turning tangent is left out)
     assert contact.augmented  # the default: the augmented Lagrangian's terms, with multipliers as between solves
-    contact.multiplier[:] = 2e4 * rng.random(contact.pairs)  # Pa: pressed pairs, some also a little outside
-    # p = <lambda - kappa phi> has a kink at 0; the step moves kappa phi by about 20 Pa: keep every pair 1 kPa off it
-    trial = contact.multiplier - contact.kappa * contact.search(x0)["phi"]
-    contact.multiplier[np.abs(trial) < 1e3] += 2e3
-    (_, bp), (_, bm) = at(1.0), at(-1.0)
-    x0.copy(vec)
-    import dolfinx.fem.petsc
-
-    A = dolfinx.fem.petsc.create_matrix(physics.form("jacobian"))
-    A.zeroEntries()
-    A.assemble()
-    contact.extend_pattern(A)
-    A.zeroEntries()
-    contact.add_jacobian(vec, A)
-    applied = vec.duplicate()
-    A.mult(step, applied)
-    fd = bp - bm
-    fd.scale(0.5)
-    assert (fd - applied).norm() <= 1e-6 * applied.norm()
+    off_the_kink(contact, rng, contact.search(vec)["phi"])  # the step moves kappa phi by about 20 Pa
+    assert matches(contact, physics, vec, step)[1] <= 1e-6
 
 
 @pytest.mark.parametrize("model", ["sliding", "frictionless"])

@@ -73,5 +73,5 @@ def test_hollow_cones_pulled_base_first_are_pointed_to_full_cones():
     assert 'geometry.cone_kind = "full"' in text and "pulled base first" in text and "mesh.refinement = 1" in text
     assert 'cone_kind = "full"' in cones("hollow", True, "coulomb")
     for other in (cones("hollow", False), cones("full", True), cones("hollow", True, "tied"),
-                  cones("hollow", True, track=False)):  # the thread tied: these reach 4 mm
+                  cones("hollow", True, track=False)):  # the thread tied: one cone reaches 4 mm (P1)
         assert "cone_kind" not in other

@@ -87,9 +87,11 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
     if effects.thread_track and effects.cone_interface != "sliding":  # nothing tied
         if moved:  # the end moved already: what is known of this model's reach
             return ("; with nothing tied the cones alone hold the thread: the paper's four cones with a sliding "
-                    "thread stop at a moved end of 7.8 mm (5.1 N) frictionless, at 3.2-6.3 mm (0.55-3.2 N, by the load "
-                    "steps) with Coulomb friction mu 0.3, limits of this model as built (docs/contact.md: Nothing "
-                    'tied, rerun); effects.thread_interface = "tied" carries the pull further')
+                    "thread stop at a moved end of 7.8 mm (5.1 N) frictionless (before the search's arc mend), at "
+                    "3.2 mm (0.58 N) with Coulomb friction mu 0.3 (an element inverting ahead of cone 1's apex cap; "
+                    'four full cones, geometry.cone_kind = "full", reach 4 mm), limits of this model as built '
+                    '(docs/contact.md: Nothing tied, rerun); effects.thread_interface = "tied" carries the pull '
+                    "further")
         return ("; with nothing tied the cones alone hold the thread, and the paper's cones (apex toward the pull) "
                 "hold little (one cone at P1, the end moved 4 mm: 0.25 N with a sliding thread and Coulomb cones, "
                 'mu 0.3, against 0.94 N tied): follow the pull with loading.control = "displacement" '

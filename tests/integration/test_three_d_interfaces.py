@@ -126,8 +126,11 @@ def test_a_large_friction_coefficient_in_3d_moves_load_to_the_thread_as_in_2d(tm
 
 
 #: How far the 3-D cones' interface models may sit from the tied model's 3-D-against-2-D gap (points of USUM): the
-#: gaps are discretisation errors of the same meshes; measured 0.54 and 0.25 points (sliding, 0.25 and 0.5 N).
-CONE_GAP_AGREEMENT = 0.01
+#: gaps are discretisation errors of the same meshes; measured (sliding, 0.25 and 0.5 N) 0.54 and 0.25 points on
+#: Debian 12's gmsh 4.8 meshes, 1.10 and 0.48 on Debian 13's gmsh 4.13 ones, where the sliding gap is the same
+#: (-2.99 / -2.71 % against -2.97 / -2.70 %) and the tied gap is not (-1.89 / -2.23 % against -2.43 / -2.45 %):
+#: the tied reference's own gap moves 0.54 points with the mesh generator. The band was 1 point, set on Debian 12.
+CONE_GAP_AGREEMENT = 0.015
 
 
 @pytest.mark.slow

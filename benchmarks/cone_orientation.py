@@ -15,13 +15,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import resource
-import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from speed import ROOT, run  # noqa: E402
+
+from suture_fem.support.io import write_json  # noqa: E402
+
 MOVE = ['loading.control="displacement"', "loading.displacement_mm=4", "loading.report_displacements_mm=[1,2,3]",
         "mesh.degree=1"]
 INTERFACES = {
@@ -34,31 +35,27 @@ ORIENTATIONS = ("apex_to_pull", "base_to_pull")
 
 
 def case(cones: int, kind: str, orientation: str, interface: str, out: Path) -> dict:
-    """One run; its forces, shares and cost."""
+    """One run (benchmarks/speed.py's ``run``: its own process, its CPU); its forces, shares and cost."""
     folder = out / f"{kind}_{cones}_{orientation}_{interface}"
     values = [*MOVE, f"geometry.cones={cones}", f'geometry.cone_kind="{kind}"',
               f'geometry.cone_orientation="{orientation}"', *INTERFACES[interface]]
-    cmd = [sys.executable, "-P", "-m", "suture_fem.cli", "run", "paper", "--no-pictures", "--out", str(folder)]
+    args = ["run", "paper", "--no-pictures"]
     for v in values:
-        cmd += ["--set", v]
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env={**os.environ, "OMP_NUM_THREADS": "1"})
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
-    row = {"cones": cones, "kind": kind, "orientation": orientation, "interface": interface, "exit": proc.returncode,
-           "cpu_s": round(cpu, 1)}
+        args += ["--set", v]
+    done = run(ROOT, args, folder)
+    row = {"cones": cones, "kind": kind, "orientation": orientation, "interface": interface, "exit": done["exit"],
+           "cpu_s": round(done["cpu_s"], 1)}
     path = folder / "results.json"
     if not path.exists():
-        return {**row, "error": proc.stderr.strip().splitlines()[-1:] or [""]}
+        return {**row, "error": done.get("error", "")}
     r = json.loads(path.read_text())
-    reports = r["at_forces"]
     row.update(status=r["status"], reached_mm=r.get("thread_end_displacement_mm", 0.0),
                force_n=r.get("force_reached_n", 0.0),
                newton_iterations=r.get("newton_iterations", "-"), cutbacks=r.get("cutbacks", "-"),
-               forces_n={f"{a['thread_end_displacement_mm']:.3g}": a["force_n"] for a in reports},
+               forces_n={f"{a['thread_end_displacement_mm']:.3g}": a["force_n"] for a in r["at_forces"]},
                shares_n=r.get("load_share_n"))
     if r["status"] != "converged":
-        row["stop"] = proc.stderr.strip().splitlines()[-1][:300] if proc.stderr.strip() else ""
+        row["stop"] = r.get("diagnosis") or r["status"]
     return row
 
 
@@ -98,9 +95,7 @@ def main() -> None:
             for o in args.orientations.split(","):
                 for i in args.interfaces.split(","):
                     rows.append(case(int(c), k, o, i, out))
-                    part = out / "cone_orientation.json.part"  # the rows so far, whole: a later case's crash keeps them
-                    part.write_text(json.dumps(rows, indent=1))
-                    part.replace(out / "cone_orientation.json")
+                    write_json(out / "cone_orientation.json", rows)  # the rows so far: a later crash keeps them
     print(table(rows))
     print(f"wrote {out / 'cone_orientation.json'}")
 

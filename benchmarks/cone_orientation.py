@@ -4,8 +4,8 @@ For each cone count, cone kind ("full" or "hollow") and orientation, the pulled 
 (`loading.control = "displacement"`, reports at 1, 2 and 3 mm, P1) with the thread and cones tied (the
 paper's model) and with nothing tied: a sliding thread with frictionless cones, and with Coulomb cones
 (mu 0.3). Each case is one `suture-fem run` in a fresh process (a stopped case is a row too). Prints a
-table (the force at 1-4 mm, each cone's share at the last state, Newton iterations, cutbacks, CPU of the
-child process) and writes JSON.
+table (the force at 1-4 mm, each cone's share and the tissue's next layer on the cones at the last state, Newton
+iterations, cutbacks, CPU of the child process) and writes JSON.
 
     .venv/bin/python benchmarks/cone_orientation.py [--out benchmarks/out/cone_orientation] [--cones 1,4]
         [--kinds full,hollow] [--orientations apex_to_pull,base_to_pull] [--interfaces tied,frictionless,coulomb]
@@ -54,6 +54,10 @@ def case(cones: int, kind: str, orientation: str, interface: str, out: Path) -> 
                newton_iterations=r.get("newton_iterations", "-"), cutbacks=r.get("cutbacks", "-"),
                forces_n={f"{a['thread_end_displacement_mm']:.3g}": a["force_n"] for a in r["at_forces"]},
                shares_n=r.get("load_share_n"))
+    contact = r.get("interface", {}).get("cone_contact", {})
+    if "next_layer_pressed_nodes" in contact:  # the tissue's next layer against the cones at the last state
+        row.update(next_layer_pressed=contact["next_layer_pressed_nodes"],
+                   next_layer_depth_um=round(1e3 * contact["next_layer_penetration_max_mm"], 3))
     if r["status"] != "converged":
         row["stop"] = r.get("diagnosis") or r["status"]
     return row
@@ -62,19 +66,21 @@ def case(cones: int, kind: str, orientation: str, interface: str, out: Path) -> 
 def table(rows: list[dict]) -> str:
     """The rows as a markdown table."""
     lines = ["| cones | kind | orientation | thread / cones | force at 1 / 2 / 3 / 4 mm (N) | outcome | cones' shares "
-             "at the last state (N) | Newton its | cutbacks | CPU s |", "| --- " * 10 + "|"]
+             "at the last state (N) | next layer pressed, deepest (um) | Newton its | cutbacks | CPU s |",
+             "| --- " * 11 + "|"]
     for r in rows:
         if "status" not in r:
             lines.append(f"| {r['cones']} | {r['kind']} | {r['orientation']} | {r['interface']} | - | no results "
-                         f"(exit {r['exit']}) | - | - | - | {r['cpu_s']} |")
+                         f"(exit {r['exit']}) | - | - | - | - | {r['cpu_s']} |")
             continue
         forces = " / ".join(f"{r['forces_n'][d]:.4f}" if d in r["forces_n"] else "-" for d in ("1", "2", "3", "4"))
         outcome = "4 mm" if r["status"] == "converged" else f"stopped at {r['reached_mm']:.3g} mm, {r['force_n']:.3g} N"
         shares = r["shares_n"] or {}
         cones = " / ".join(f"{v:.3f}" for k, v in shares.items() if k.startswith("cone"))
         thread = "sliding" if r["interface"] != "tied" else "tied"
+        layer = f"{r['next_layer_pressed']}, {r['next_layer_depth_um']:.3g}" if "next_layer_pressed" in r else "-"
         lines.append(f"| {r['cones']} | {r['kind']} | {r['orientation']} | {thread} / {r['interface']} | {forces} | "
-                     f"{outcome} | {cones} | {r['newton_iterations']} | {r['cutbacks']} | {r['cpu_s']} |")
+                     f"{outcome} | {cones} | {layer} | {r['newton_iterations']} | {r['cutbacks']} | {r['cpu_s']} |")
     return "\n".join(lines)
 
 

@@ -12,8 +12,9 @@ the tissue's own nodes on a sliding thread's track. It is split by where the nod
 * ``thread``: every other interface node (the bare thread, inside a hollow cone's cavity included).
 
 With the cones and the thread both free (nothing tied), a cone also pushes the track's tissue ahead of it
-(:meth:`~suture_fem.physics.effects.cone_contact.ConeContact.track_push`): that push is the cone's share,
-moved from the thread's, so ``thread`` is what the thread itself passes (its friction).
+(:meth:`~suture_fem.physics.effects.cone_contact.ConeContact.pushes`): that push is the cone's share,
+moved from the thread's, so ``thread`` is what the thread itself passes (its friction). A cone's push on the
+tissue's next layer of nodes (off the interface, in the search once tissue wraps round a corner) joins its share.
 
 ``load_share_n`` gives each part's axial force (N); the parts sum to the pull to solver tolerance.
 In 3-D (the half model) every vector is taken in the meridian plane: its component along the node's direction
@@ -139,10 +140,10 @@ class Interface(Quantity):
         fz = force[:, 1]
         shares = np.array([float(np.sum(fz[self.part == k])) for k in range(len(self.names))])
         shares = comm.allreduce(shares)
-        if physics.cone_contact is not None and physics.effects.thread_track:  # a cone's push on the track's tissue
-            push = physics.cone_contact.track_push(compat.function_vector(physics.state))
-            shares[: len(push)] += push
-            shares[-1] -= float(np.sum(push))
+        if physics.cone_contact is not None:  # a cone's push on the track's tissue (an interface's) and the next layer
+            track, near = physics.cone_contact.pushes(compat.function_vector(physics.state))
+            shares[: len(track)] += track + near
+            shares[-1] -= float(np.sum(track))
         u = self._in_meridian(physics.u.x.array.reshape(-1, self.dim))
         local = {
             "xy": self.xy_mm, "force": force, "area": area[self.nodes], "normal": normal[self.nodes],

@@ -61,7 +61,7 @@ def test_the_cone_terms_are_the_derivatives_of_their_potential():
     rng = np.random.default_rng(1)
     physics.state.x.array[:] = 2e-6 * rng.standard_normal(physics.state.x.array.shape)  # about 2 um: pairs close
     physics.state.x.scatter_forward()
-    contact.bound[:] = 1e4
+    contact.bound[~contact.near] = 1e4  # the next layer is frictionless: its bound stays 0 (ConeContact._gap_forces)
     contact.slip = 1e-6
     vec = compat.function_vector(physics.state)
     assert np.count_nonzero(contact.search(vec)["phi"] < 0) > 5  # some pairs closed, so the terms act
@@ -238,11 +238,13 @@ def test_with_nothing_tied_two_ranks_give_the_serial_answer(tmp_path_factory, no
     assert b["interface"]["cone_contact"]["slip_nodes"] == a["interface"]["cone_contact"]["slip_nodes"]
 
 
-def test_a_cone_moved_ahead_presses_the_tracks_tissue_in_front_of_its_cap():
+def test_a_cone_moved_ahead_presses_the_tissue_in_front_of_its_cap():
     """The search itself: the cone moved 0.1 mm toward the pull, the tissue left where it was.
 
     The track's tissue within 0.1 mm ahead of the cap is inside the cone by its distance short of 0.1 mm,
-    and the contact pushes it toward the pull; the track's tissue farther ahead is untouched.
+    and the contact pushes it toward the pull; the track's tissue farther ahead is untouched. The tissue's
+    next layer (an element off the cone at rest, open) is pressed only where the cap has moved past it, and
+    its push joins the cone's share.
     """
     from petsc4py import PETSc
 
@@ -258,10 +260,20 @@ def test_a_cone_moved_ahead_presses_the_tracks_tissue_in_front_of_its_cap():
     vec.setValues(contact.cone_dofs[0].astype(PETSc.IntType), np.full(len(contact.cone_dofs[0]), 1e-4))  # m
     vec.assemble()
     found = contact.search(vec)
-    track = ~contact.surface
+    track = contact.track
     ahead = track & (contact.X[:, 1] > cone.apex_z) & (contact.X[:, 1] < cone.apex_z + 0.1)
     assert ahead.sum() >= 1 and not (track & (contact.X[:, 1] > cone.apex_z + 0.1) & (found["phi"] < 0)).any()
     depth_mm = contact.X[ahead, 1] - cone.apex_z - 0.1
     assert found["phi"][ahead] / 1e-3 == pytest.approx(depth_mm, abs=1e-9)
     grad = contact._gradient(vec)  # multipliers 0 at rest: the penalty's force, kappa w depth
     assert np.all(-grad[ahead, 1] > 0.0)  # pushed toward the pull
+    # the tissue's next layer: off the cones at rest (open), pressed only where the cap has moved past it
+    rest = contact.search(vec.duplicate())["phi"]
+    layer = contact.near
+    assert layer.sum() > 10 and np.min(rest[layer]) > 10e-6 and not contact._pressure(rest)[1][layer].any()
+    pressed = layer & (found["phi"] < 0.0)
+    assert pressed.any() and np.all(contact.X[pressed, 1] > cone.apex_z)  # only ahead of the cap, inside it
+    assert np.all(contact.X[pressed, 1] < cone.apex_z + 0.1) and np.all(-grad[pressed, 1] > 0.0)
+    track_push, layer_push = contact.pushes(vec)  # the cone's shares of both: the sums of their forces
+    assert track_push[0] == pytest.approx(-np.sum(grad[track, 1]), rel=1e-12)
+    assert layer_push[0] == pytest.approx(-np.sum(grad[layer, 1]), rel=1e-12) and layer_push[0] > 0.0

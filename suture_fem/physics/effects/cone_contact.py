@@ -59,7 +59,7 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import regions
 from suture_fem.geometry.outline import deepest_on_way, project
-from suture_fem.physics.effects import cone_frame
+from suture_fem.physics.effects import cone_frame, cone_notes
 from suture_fem.physics.effects.cone_pairs import cone_pairs
 from suture_fem.physics.effects.contact import cones_augmented, penalty_stiffness
 from suture_fem.physics.effects.fixed_point import Aitken, update_norms
@@ -90,8 +90,9 @@ class ConeContact(SlipBound):
         2) their places (r, axial) (mm); cone: (pairs,) the cone of each; s0, phi0: (pairs,) the reference arc length
         and distance (mm); weight: (pairs,) m^2; cone_dofs: per cone, the global axial dofs of its interface nodes
         (every rank's); outlines: per cone, its outline; kappa (Pa/m); model; mu (0: no friction); slip: s (m);
-        bound: (pairs,) the frozen slip limit (Pa); surface: (pairs,) True on a cone's surface, False for the
-        track's tissue (the thread free in its track).
+        bound: (pairs,) the frozen slip limit (Pa); surface: (pairs,) True on a cone's surface; track: (pairs,)
+        the track's tissue (the thread free in its track); near: (pairs,) the tissue's next layer (unilateral,
+        frictionless).
     """
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
@@ -122,10 +123,12 @@ class ConeContact(SlipBound):
         self.s0, self.phi0 = np.zeros(self.pairs), np.zeros(self.pairs)
         self._of_cone = [np.flatnonzero(self.cone == c) for c in range(len(self.outlines))]
         self.surface = np.asarray(pairs.get("surface", np.ones(self.pairs, dtype=bool)), dtype=bool)
+        self.near = np.asarray(pairs.get("near", np.zeros(self.pairs, dtype=bool)), dtype=bool)
+        self.track = ~self.surface & ~self.near
         for sel, outline in zip(self._of_cone, self.outlines):
             start = project(self.X[sel], outline)
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
-        self.phi0[~self.surface] = 0.0  # the track's tissue starts off the cone: its gap is its distance
+        self.phi0[~self.surface] = 0.0  # the track's and the next layer's start off the cone: the gap is the distance
         self.bound = np.zeros(self.pairs)
         self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
         self._state = state
@@ -154,7 +157,7 @@ class ConeContact(SlipBound):
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
                       target, convexified=p2, touch_holds=section.thread_track or p2,
                       wall_m=scene.geometry.cone_wall_mm * regions.MM)
-        physics.notes.setdefault("interfaces", {}).update(contact.notes())
+        physics.notes.setdefault("interfaces", {}).update(cone_notes.notes(contact))
         return contact
 
     def search(self, u_vec: Any) -> dict[str, np.ndarray]:
@@ -220,8 +223,10 @@ class ConeContact(SlipBound):
         """(p, closed) per pair: p = lambda - kappa phi, clipped at 0 unless bilateral (Pa); closed: p > 0 (or all)."""
         trial = self.multiplier - self.kappa * phi
         if self.bilateral:
-            return trial, np.ones(self.pairs, dtype=bool)
-        closed = trial >= 0.0 if self.touch_holds else trial > 0.0
+            closed = np.ones(self.pairs, dtype=bool)
+        else:
+            closed = trial >= 0.0 if self.touch_holds else trial > 0.0
+        closed[self.near] = trial[self.near] > 0.0  # the next layer only ever pushes
         return np.where(closed, trial, 0.0), closed
 
     def pressure(self) -> np.ndarray:
@@ -342,8 +347,9 @@ class ConeContact(SlipBound):
         widen(A, *self._layout.entries())
 
     def status(self, u_vec: Any) -> dict[str, Any]:
-        """How many nodes on the cones are closed and stick, closed and slip, open; of the track's, how many pressed.
+        """How many nodes on the cones are closed and stick, closed and slip, open; the track's and the next layer's.
 
+        Of the track's and the next layer's, how many are pressed and how deep the deepest lies inside its cone.
         All ranks'; ``track_pressed_nodes`` only with the track's tissue in the search.
         """
         found = self.search(u_vec)
@@ -351,42 +357,32 @@ class ConeContact(SlipBound):
         stick = closed & (np.abs(found["g"]) < 2.0 * self.slip) if self.mu > 0.0 else np.zeros(self.pairs, bool)
         on = self.surface
         counts = np.array([(stick & on).sum(), (closed & ~stick & on).sum(), (~closed & on).sum(),
-                           (closed & ~on).sum(), (~on).sum()])
-        stick_n, slip_n, open_n, pressed_n, track_n = (int(v) for v in self.comm.allreduce(counts))
+                           (closed & self.track).sum(), self.track.sum(), (closed & self.near).sum()])
+        stick_n, slip_n, open_n, pressed_n, track_n, near_n = (int(v) for v in self.comm.allreduce(counts))
         out: dict[str, Any] = {"stick_nodes": stick_n, "slip_nodes": slip_n, "open_nodes": open_n}
+        inside = -found["phi"]
         if track_n:  # the track's tissue a cone pushes ahead of it, and how far into the cone the deepest lies
-            deepest = float(np.max(-found["phi"][~on], initial=0.0))
+            deepest = float(np.max(inside[self.track], initial=0.0))
             out["track_pressed_nodes"] = pressed_n
             out["track_penetration_max_mm"] = float(self.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
+        deepest = float(np.max(inside[self.near], initial=0.0))
+        out["next_layer_pressed_nodes"] = near_n
+        out["next_layer_penetration_max_mm"] = float(self.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
         return out
 
-    def track_push(self, u_vec: Any) -> np.ndarray:
-        """Per cone, the axial force (N) its contact passes to the track's tissue (0 without it; all ranks)."""
+    def pushes(self, u_vec: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Per cone, the axial force (N) its contact passes to the track's tissue and to the next layer (all ranks)."""
         grad = self._gradient(u_vec)  # dE/dy: the terms' force on the tissue's node is -dE/dy
-        push = np.array([-float(np.sum(grad[(self.cone == c) & ~self.surface, 1])) for c in range(len(self.outlines))])
-        return np.asarray(self.comm.allreduce(push))
+        push = np.array([[-float(np.sum(grad[(self.cone == c) & part, 1])) for c in range(len(self.outlines))]
+                         for part in (self.track, self.near)])
+        track, near = np.asarray(self.comm.allreduce(push))
+        return track, near
 
-    def notes(self) -> dict[str, Any]:
-        """The record's numbers: the pairs, the penalty, and (Coulomb) the coefficient and the slip."""
-        track = int(self.comm.allreduce(int(np.count_nonzero(~self.surface))))
-        out: dict[str, Any] = {"cone_contact_pairs": int(self.comm.allreduce(self.pairs)) - track,
-                               "cone_contact_penalty_pa_per_m": self.kappa,
-                               "cone_contact_search": "each tissue node's nearest point on its cone's outline, the "
-                                                      "outline moved by the cone's mean axial displacement, at "
-                                                      "every residual and Jacobian evaluation",
-                               "cone_contact_corner_radius_mm": self.corner_mm,
-                               "cone_contact_method": "augmented" if self.augmented else "penalty"}
-        if track:
-            out["cone_contact_track_nodes"] = track
-            out["cone_contact_track_search"] = ("each of the track's tissue nodes against the cone that slides toward "
-                                                "it (the nearest whose lower end is at or below the node)")
-        if self.augmented:
-            out["contact_penetration_target_mm"] = self.target / regions.MM
-        if self.convexified:
-            out["cone_contact_jacobian"] = "convexified: the distance's softening curvature left out (P2)"
-        if self.model == "coulomb":
-            out.update({"cone_friction_coefficient": self.mu, "friction_slip_mm": self.slip / regions.MM})
-        return out
+    def _gap_forces(self) -> np.ndarray:
+        """Coulomb's residual forces (:class:`SlipBound`), none at the next layer's nodes (frictionless)."""
+        forces = super()._gap_forces()
+        forces[self.near] = 0.0
+        return forces
 
     def destroy(self) -> None:
         """Free the scatter and its local vector."""

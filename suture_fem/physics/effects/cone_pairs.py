@@ -13,6 +13,13 @@ With the thread free in its track too (``effects.thread_interface`` not tied), t
 (facets tagged ``track``) join the search, each against the cone that slides toward it: the nearest cone whose
 lower end lies at or below the node (the pull moves every cone toward +z), the first cone for the nodes
 below every cone. A cone then pushes the track's tissue ahead of its apex instead of passing through it.
+
+The tissue's next layer of nodes (of a tissue cell with a node on a cone's surface, themselves on no cone or
+track) joins the search too, each against its nearest cone at rest, as unilateral and frictionless whatever the
+cones' model: tissue sliding round a cone's corner stretches its facets there and draws these nodes onto the
+cone, which the surface's nodes alone let through (docs/contact.md, "The apex-cap stall"). At rest they lie an
+element off the cone, so until one touches, nothing changes. Having no facet, each has the area of a facet one
+suture element long: 2 pi r h (3-D: the half model's 2 h^2).
 """
 
 from __future__ import annotations
@@ -29,7 +36,7 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry import regions
-from suture_fem.geometry.outline import meridian
+from suture_fem.geometry.outline import meridian, project
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
 from suture_fem.physics.effects.friction import global_dofs
@@ -75,6 +82,16 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
         cone = np.concatenate([cone, _cone_behind(xy[track], cones)])
         area[track] = track_area[track]
         own = np.concatenate([own, np.zeros(len(track), dtype=bool)])
+    else:
+        track = np.zeros(0, dtype=np.int64)
+    outlines = [c.rounded(rho, tagged.geometry.r_thread, to_axis=True) for c in cones]
+    near = _next_layer(physics, on_cones, suture, track)
+    nodes = np.concatenate([nodes, near])
+    cone = np.concatenate([cone, _nearest(xy[near], outlines)])
+    h = tagged.sizes.suture * regions.MM
+    area[near] = 2 * math.pi * xyz[near, 0] * regions.MM * h if dim == 2 else HALF_MODEL_WEIGHT * h * h
+    layer = np.concatenate([np.zeros(len(own), dtype=bool), np.ones(len(near), dtype=bool)])
+    own = np.concatenate([own, np.zeros(len(near), dtype=bool)])
     cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)
     faces = mark_facet_nodes(V, fdim, meshmod.facets(tagged, Facet.INTERFACE))
     surface = np.flatnonzero(cone_cells & faces)
@@ -85,8 +102,29 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
                  for c in range(len(cones))]
     dofs = np.stack([global_dofs(physics, nodes, c) for c in range(dim)], axis=1)
     return {"nodes": nodes, "dofs": dofs, "X": xyz[nodes], "cone": cone, "weight": area[nodes], "surface": own,
-            "cone_dofs": cone_dofs, "corner_mm": rho,
-            "outlines": [c.rounded(rho, tagged.geometry.r_thread, to_axis=True) for c in cones]}
+            "near": layer, "cone_dofs": cone_dofs, "corner_mm": rho, "outlines": outlines}
+
+
+def _next_layer(physics: Any, on_cones: np.ndarray, suture: np.ndarray, track: np.ndarray) -> np.ndarray:
+    """The owned nodes of the tissue cells with a node ``on_cones``, on no cone, suture or ``track`` (collective).
+
+    ``on_cones``, ``suture``: per local node; ``track``: the track's owned nodes in the search.
+    """
+    V, tagged = physics.V, physics.tagged
+    n_cells = physics.mesh.topology.index_map(physics.mesh.topology.dim).size_local
+    cells = np.setdiff1d(np.arange(n_cells, dtype=np.int32), meshmod.region_cells(tagged, regions.SUTURE))
+    touching = cells[on_cones[compat.cell_dofs(V)[cells]].any(axis=1)].astype(np.int32)
+    layer = mark_dofs(V, touching).reshape(len(on_cones), -1).any(axis=1) & ~on_cones & ~suture
+    layer[track] = False
+    return np.flatnonzero(layer[: V.dofmap.index_map.size_local])
+
+
+def _nearest(xy_mm: np.ndarray, outlines: list) -> np.ndarray:
+    """The cone whose outline is nearest to each point."""
+    if len(xy_mm) == 0:
+        return np.zeros(0, dtype=np.int64)
+    distance = np.stack([np.abs(project(xy_mm, outline).distance) for outline in outlines], axis=1)
+    return np.argmin(distance, axis=1).astype(np.int64)
 
 
 def _cone_of(xy_mm: np.ndarray, cones: list, z_end: float) -> np.ndarray:

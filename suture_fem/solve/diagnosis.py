@@ -71,8 +71,7 @@ def advice(physics: Physics, cause: StopCause, violation: Any = None) -> str:
     moved = getattr(physics, "control", None) is not None  # the pulled end already moved (displacement control)
     walled = violation is not None and violation.quantity is Limit.CONE_DEPTH
     text = _cone_advice(effects, degree, moved, walled) if effects.cone_contact else ""
-    text = _base_first_advice() if effects.cone_contact and effects.thread_track and _hollow_base_first(physics) \
-        else text
+    text = _base_first_advice() if effects.cone_contact and effects.thread_track and _base_first(physics) else text
     if text:
         return text
     if effects.unilateral_thread:
@@ -86,12 +85,11 @@ def advice(physics: Physics, cause: StopCause, violation: Any = None) -> str:
 def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
     if effects.thread_track and effects.cone_interface != "sliding":  # nothing tied
         if moved:  # the end moved already: what is known of this model's reach
-            return ("; with nothing tied the cones alone hold the thread: the paper's four cones with a sliding "
-                    "thread stop at a moved end of 7.8 mm (5.1 N) frictionless (before the search's arc mend), at "
-                    "3.2 mm (0.58 N) with Coulomb friction mu 0.3 (an element inverting ahead of cone 1's apex cap; "
-                    'four full cones, geometry.cone_kind = "full", reach 4 mm), limits of this model as built '
-                    '(docs/contact.md: Nothing tied, rerun); effects.thread_interface = "tied" carries the pull '
-                    "further")
+            return ("; with nothing tied the cones alone hold the thread: the paper's four hollow cones with a "
+                    "sliding thread reach a moved end of 4 mm with Coulomb friction mu 0.3 (1.02 N, P1) and stop at "
+                    "1.9 mm frictionless, where P1 tissue elements fold round a cone's corner with the tissue's next "
+                    "layer held off the cone (docs/contact.md: The tissue's next layer in the search); Coulomb cones "
+                    'go further than frictionless ones, and effects.thread_interface = "tied" further still')
         return ("; with nothing tied the cones alone hold the thread, and the paper's cones (apex toward the pull) "
                 "hold little (one cone at P1, the end moved 4 mm: 0.25 N with a sliding thread and Coulomb cones, "
                 'mu 0.3, against 0.94 N tied): follow the pull with loading.control = "displacement" '
@@ -113,17 +111,17 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
             "not release")
 
 
-def _hollow_base_first(physics: Physics) -> bool:
-    """Hollow cones with their base toward the pulled end (which lies at the largest z)."""
+def _base_first(physics: Physics) -> bool:
+    """Cones with their base toward the pulled end (which lies at the largest z)."""
     g = getattr(getattr(physics, "tagged", None), "geometry", None)
-    return g is not None and g.kind == "hollow" and any(c.base_z > c.apex_z for c in g.cones)
+    return g is not None and any(c.base_z > c.apex_z for c in g.cones)
 
 
 def _base_first_advice() -> str:
-    return ("; with nothing tied, hollow cones pulled base first stop on hypodermis elements inverting near the base "
-            "(one cone, P1, the end moved: at 2.3 mm frictionless, beside the base's sharp inner rim, and 3.2 mm "
-            "Coulomb 0.3; at mesh.refinement = 1 the frictionless pull reaches 3.85 mm), while full cones "
-            '(geometry.cone_kind = "full") pulled base first reach 4 mm (docs/contact.md: Cones pulled base first)')
+    return ("; with nothing tied, cones pulled base first stop on hypodermis elements folding round the base's rim "
+            "(one cone, P1, the end moved: full cones at 2.7 mm frictionless and 2.9 mm Coulomb 0.3, hollow ones at "
+            "3.2 and 3.5 mm); one refinement finer, mesh.refinement = 1, one full frictionless cone reaches 4 mm "
+            "(docs/contact.md: The tissue's next layer in the search)")
 
 
 def _thread_advice(effects: Any) -> str:

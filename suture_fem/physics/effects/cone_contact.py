@@ -37,6 +37,9 @@ Aitken-relaxed; the state follows an update by a chord step where :func:`~.fixed
 pressed node is within ``effects.contact_penetration_mm`` of its cone. The Hessian is then kappa w n n^T where
 pressed minus w p d2 phi; with lambda = 0 the penalty's.
 
+The tissue's next layer of nodes (an element off a cone at rest) is searched too, always unilateral and without
+friction (:mod:`.cone_pairs`): tissue folding round a cone's corner would otherwise draw it through the cone.
+
 Left out: the cone's own deformation in the search (a cone passes at most 0.8 N in the runs of docs/contact.md: its
 wall's axial strain stays below 0.2 %, a few um over the cone; the peak contact pressure, about 1 MPa, strains it
 radially by under 1e-3). The terms are assembled by hand into the full residual and Jacobian before the solver's

@@ -76,6 +76,28 @@ def test_the_cone_terms_are_the_derivatives_of_their_potential():
     assert slope_error <= 1e-6 and hessian_error <= 1e-6
 
 
+def test_with_the_thread_tied_the_next_layer_is_measured_not_held():
+    """The thread tied: a next-layer node the cap has passed is inside the cone, reported, and given no force."""
+    from petsc4py import PETSc
+
+    from suture_fem import Model, Scene
+    from suture_fem.support import compat
+
+    scene = Scene.builtin("paper").with_values({"geometry.cones": 1, "mesh.degree": 1, "mesh.refinement": 0,
+                                                "effects.cone_interface": "coulomb"})  # the derivatives' scene
+    physics = Model(scene).physics
+    contact = physics.cone_contact
+    assert not contact.hold_next_layer and physics.notes["interfaces"]["cone_contact_next_layer_nodes"] > 10
+    vec = compat.function_vector(physics.state)
+    vec.setValues(contact.cone_dofs[0].astype(PETSc.IntType), np.full(len(contact.cone_dofs[0]), 1e-4))  # m
+    vec.assemble()
+    inside = contact.near & (contact.search(vec)["phi"] < 0.0)
+    assert inside.any() and not contact._pressure(contact.search(vec)["phi"])[1][inside].any()
+    assert np.all(contact._gradient(vec)[contact.near] == 0.0) and contact.pushes(vec)[1][0] == 0.0
+    status = contact.status(vec)
+    assert status["next_layer_pressed_nodes"] == 0 and status["next_layer_penetration_max_mm"] > 0.01
+
+
 @pytest.mark.parametrize("model", ["sliding", "frictionless"])
 def test_the_load_shares_sum_to_the_pull(model, sliding, frictionless):
     rec = {"sliding": sliding, "frictionless": frictionless}[model]["at_forces"][-1]

@@ -100,7 +100,7 @@ class ConeContact(SlipBound):
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
                  slip_m: float, target_m: float | None = None, convexified: bool = False, touch_holds: bool = False,
-                 wall_m: float = math.inf):
+                 wall_m: float = math.inf, hold_next_layer: bool = True):
         """``state``: the state's PETSc vector; ``pairs``: :func:`cone_pairs`'s arrays.
 
         ``target_m``: the augmented Lagrangian's largest penetration (m); None: the pure penalty.
@@ -109,6 +109,7 @@ class ConeContact(SlipBound):
         closed: with nothing tied, only the contact holds the suture, and at rest it would hold it by nothing
         (a singular Jacobian: the first step from rest moved the suture through the tissue); at P2 too (:meth:`on`).
         ``wall_m``: the cones' wall (m): a trial state's nodes may lie DEPTH_FRACTION of it deep (:meth:`deepest`).
+        ``hold_next_layer``: the next layer's nodes are held off the cones; else only measured (:meth:`status`).
         """
         self.comm, self.kappa, self.model = comm, float(kappa), model
         self.augmented, self.target = target_m is not None, float(target_m or 0.0)
@@ -128,6 +129,7 @@ class ConeContact(SlipBound):
         self.surface = np.asarray(pairs.get("surface", np.ones(self.pairs, dtype=bool)), dtype=bool)
         self.near = np.asarray(pairs.get("near", np.zeros(self.pairs, dtype=bool)), dtype=bool)
         self.track = ~self.surface & ~self.near
+        self.hold_next_layer = bool(hold_next_layer)
         for sel, outline in zip(self._of_cone, self.outlines):
             start = project(self.X[sel], outline)
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
@@ -159,7 +161,7 @@ class ConeContact(SlipBound):
         contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
                       target, convexified=p2, touch_holds=section.thread_track or p2,
-                      wall_m=scene.geometry.cone_wall_mm * regions.MM)
+                      wall_m=scene.geometry.cone_wall_mm * regions.MM, hold_next_layer=section.thread_track)
         physics.notes.setdefault("interfaces", {}).update(cone_notes.notes(contact))
         return contact
 
@@ -207,6 +209,8 @@ class ConeContact(SlipBound):
         """
         found = self.search(self._state)
         inside = np.maximum(-found["phi"], 0.0)
+        if not self.hold_next_layer:
+            inside[self.near] = 0.0  # measured only (:meth:`status`), as before the next layer was searched
         moved = np.linalg.norm(found["y"] - self._anchor, axis=1) > self._reach / regions.MM
         for sel, outline in zip(self._of_cone, self.outlines):
             way = sel[moved[sel]]
@@ -229,7 +233,7 @@ class ConeContact(SlipBound):
             closed = np.ones(self.pairs, dtype=bool)
         else:
             closed = trial >= 0.0 if self.touch_holds else trial > 0.0
-        closed[self.near] = trial[self.near] > 0.0  # the next layer only ever pushes
+        closed[self.near] = (trial[self.near] > 0.0) & self.hold_next_layer  # the next layer only ever pushes
         return np.where(closed, trial, 0.0), closed
 
     def pressure(self) -> np.ndarray:

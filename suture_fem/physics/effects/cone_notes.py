@@ -20,8 +20,10 @@ def notes(contact: Any) -> dict[str, Any]:
                            "cone_contact_corner_radius_mm": contact.corner_mm,
                            "cone_contact_method": "augmented" if contact.augmented else "penalty"}
     out["cone_contact_next_layer_nodes"] = near
-    out["cone_contact_next_layer_search"] = ("the tissue's nodes one element off a cone, each against its nearest "
-                                             "cone at rest: unilateral and frictionless")
+    out["cone_contact_next_layer_search"] = (("the tissue's nodes one element off a cone, each against its nearest "
+                                              "cone at rest: unilateral and frictionless") if contact.hold_next_layer
+                                             else "the tissue's nodes one element off a cone: measured (how deep "
+                                                  "inside its nearest cone the deepest lies), not held off it")
     if track:
         out["cone_contact_track_nodes"] = track
         out["cone_contact_track_search"] = ("each of the track's tissue nodes against the cone that slides toward "

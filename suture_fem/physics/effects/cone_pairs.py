@@ -14,12 +14,13 @@ With the thread free in its track too (``effects.thread_interface`` not tied), t
 lower end lies at or below the node (the pull moves every cone toward +z), the first cone for the nodes
 below every cone. A cone then pushes the track's tissue ahead of its apex instead of passing through it.
 
-The tissue's next layer of nodes (of a tissue cell with a node on a cone's surface, themselves on no cone or
-track) joins the search too, each against its nearest cone at rest, as unilateral and frictionless whatever the
-cones' model: tissue sliding round a cone's corner stretches its facets there and draws these nodes onto the
-cone, which the surface's nodes alone let through (docs/contact.md, "The apex-cap stall"). At rest they lie an
-element off the cone, so until one touches, nothing changes. Having no facet, each has the area of a facet one
-suture element long: 2 pi r h (3-D: the half model's 2 h^2).
+The tissue's next layer of nodes (of a tissue cell with a node on a cone's surface, themselves on no cone or track)
+joins the search too, each against its nearest cone at rest, as unilateral and frictionless whatever the cones'
+model (held off the cones with nothing tied, only measured with the thread tied: ``hold_next_layer``): tissue
+sliding round a cone's corner stretches its facets there and draws these nodes onto the cone, which the surface's
+nodes alone let through (docs/contact.md, "The apex-cap stall"). At rest they lie an element off the cone, so until
+one touches, nothing changes. Having no facet, each has the area of a facet one suture element long: 2 pi r h (3-D:
+the half model's 2 h^2).
 """
 
 from __future__ import annotations

@@ -37,8 +37,9 @@ Aitken-relaxed; the state follows an update by a chord step where :func:`~.fixed
 pressed node is within ``effects.contact_penetration_mm`` of its cone. The Hessian is then kappa w n n^T where
 pressed minus w p d2 phi; with lambda = 0 the penalty's.
 
-The tissue's next layer of nodes (an element off a cone at rest) is searched too, always unilateral and without
-friction (:mod:`.cone_pairs`): tissue folding round a cone's corner would otherwise draw it through the cone.
+The tissue's next layer of nodes (an element off a cone at rest) is searched too (:mod:`.cone_pairs`): tissue
+folding round a cone's corner draws it through the cone. With nothing tied it is held off, unilateral and without
+friction; with the thread tied it is only measured (held, the paper scene's frictionless cones stop at 3.67 N).
 
 Left out: the cone's own deformation in the search (a cone passes at most 0.8 N in the runs of docs/contact.md: its
 wall's axial strain stays below 0.2 %, a few um over the cone; the peak contact pressure, about 1 MPa, strains it

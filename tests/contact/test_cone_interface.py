@@ -87,13 +87,14 @@ def test_with_the_thread_tied_the_next_layer_is_measured_not_held():
                                                 "effects.cone_interface": "coulomb"})  # the derivatives' scene
     physics = Model(scene).physics
     contact = physics.cone_contact
-    assert not contact.hold_next_layer and physics.notes["interfaces"]["cone_contact_next_layer_nodes"] > 10
+    assert not contact.hold_next_layer
+    assert physics.notes["interfaces"]["cone_contact_next_layer_nodes"] == contact.watched.count > 10
     vec = compat.function_vector(physics.state)
     vec.setValues(contact.cone_dofs[0].astype(PETSc.IntType), np.full(len(contact.cone_dofs[0]), 1e-4))  # m
     vec.assemble()
-    inside = contact.near & (contact.search(vec)["phi"] < 0.0)
-    assert inside.any() and not contact._pressure(contact.search(vec)["phi"])[1][inside].any()
-    assert np.all(contact._gradient(vec)[contact.near] == 0.0) and contact.pushes(vec)[1][0] == 0.0
+    # not among the pairs (no force, no Jacobian entry, the solve's as without it), yet measured inside the cone
+    assert not contact.near.any() and contact.watched.count > 10 and contact.pushes(vec)[1][0] == 0.0
+    assert contact.watched.depth(vec, contact.search(vec)["t_c"]) > 1e-5  # m
     status = contact.status(vec)
     assert status["next_layer_pressed_nodes"] == 0 and status["next_layer_penetration_max_mm"] > 0.01
 

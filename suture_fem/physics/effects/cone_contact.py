@@ -64,7 +64,7 @@ from petsc4py import PETSc
 from suture_fem.geometry import regions
 from suture_fem.geometry.outline import deepest_on_way, project
 from suture_fem.physics.effects import cone_frame, cone_notes
-from suture_fem.physics.effects.cone_pairs import cone_pairs
+from suture_fem.physics.effects.cone_pairs import WatchedLayer, cone_pairs
 from suture_fem.physics.effects.contact import cones_augmented, penalty_stiffness
 from suture_fem.physics.effects.fixed_point import Aitken, update_norms
 from suture_fem.physics.effects.friction import SlipBound
@@ -101,7 +101,7 @@ class ConeContact(SlipBound):
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
                  slip_m: float, target_m: float | None = None, convexified: bool = False, touch_holds: bool = False,
-                 wall_m: float = math.inf, hold_next_layer: bool = True):
+                 wall_m: float = math.inf):
         """``state``: the state's PETSc vector; ``pairs``: :func:`cone_pairs`'s arrays.
 
         ``target_m``: the augmented Lagrangian's largest penetration (m); None: the pure penalty.
@@ -110,7 +110,6 @@ class ConeContact(SlipBound):
         closed: with nothing tied, only the contact holds the suture, and at rest it would hold it by nothing
         (a singular Jacobian: the first step from rest moved the suture through the tissue); at P2 too (:meth:`on`).
         ``wall_m``: the cones' wall (m): a trial state's nodes may lie DEPTH_FRACTION of it deep (:meth:`deepest`).
-        ``hold_next_layer``: the next layer's nodes are held off the cones; else only measured (:meth:`status`).
         """
         self.comm, self.kappa, self.model = comm, float(kappa), model
         self.augmented, self.target = target_m is not None, float(target_m or 0.0)
@@ -130,7 +129,8 @@ class ConeContact(SlipBound):
         self.surface = np.asarray(pairs.get("surface", np.ones(self.pairs, dtype=bool)), dtype=bool)
         self.near = np.asarray(pairs.get("near", np.zeros(self.pairs, dtype=bool)), dtype=bool)
         self.track = ~self.surface & ~self.near
-        self.hold_next_layer = bool(hold_next_layer)
+        self.hold_next_layer = bool(pairs.get("hold_next_layer", True))  # else measured only (:meth:`status`)
+        self.watched = WatchedLayer(state, pairs.get("watched"), self.outlines, self.dofs.shape[1])
         for sel, outline in zip(self._of_cone, self.outlines):
             start = project(self.X[sel], outline)
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
@@ -159,10 +159,11 @@ class ConeContact(SlipBound):
         kappa = penalty_stiffness(scene, physics.tagged.sizes.suture, factor)
         target = section.contact_penetration_mm * regions.MM if cones_augmented(section) else None
         p2 = getattr(physics, "degree", 1) != 1  # also held at rest: P2 cones failed their first step without it
-        contact = cls(physics.comm, compat.function_vector(physics.state), cone_pairs(physics), kappa,
+        pairs = cone_pairs(physics, hold_next_layer=section.thread_track)
+        contact = cls(physics.comm, compat.function_vector(physics.state), pairs, kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
                       target, convexified=p2, touch_holds=section.thread_track or p2,
-                      wall_m=scene.geometry.cone_wall_mm * regions.MM, hold_next_layer=section.thread_track)
+                      wall_m=scene.geometry.cone_wall_mm * regions.MM)
         physics.notes.setdefault("interfaces", {}).update(cone_notes.notes(contact))
         return contact
 
@@ -210,8 +211,6 @@ class ConeContact(SlipBound):
         """
         found = self.search(self._state)
         inside = np.maximum(-found["phi"], 0.0)
-        if not self.hold_next_layer:
-            inside[self.near] = 0.0  # measured only (:meth:`status`), as before the next layer was searched
         moved = np.linalg.norm(found["y"] - self._anchor, axis=1) > self._reach / regions.MM
         for sel, outline in zip(self._of_cone, self.outlines):
             way = sel[moved[sel]]
@@ -234,7 +233,7 @@ class ConeContact(SlipBound):
             closed = np.ones(self.pairs, dtype=bool)
         else:
             closed = trial >= 0.0 if self.touch_holds else trial > 0.0
-        closed[self.near] = (trial[self.near] > 0.0) & self.hold_next_layer  # the next layer only ever pushes
+        closed[self.near] = trial[self.near] > 0.0  # the next layer only ever pushes
         return np.where(closed, trial, 0.0), closed
 
     def pressure(self) -> np.ndarray:
@@ -373,7 +372,7 @@ class ConeContact(SlipBound):
             deepest = float(np.max(inside[self.track], initial=0.0))
             out["track_pressed_nodes"] = pressed_n
             out["track_penetration_max_mm"] = float(self.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
-        deepest = float(np.max(inside[self.near], initial=0.0))
+        deepest = max(float(np.max(inside[self.near], initial=0.0)), self.watched.depth(u_vec, found["t_c"]))
         out["next_layer_pressed_nodes"] = near_n
         out["next_layer_penetration_max_mm"] = float(self.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
         return out
@@ -393,7 +392,8 @@ class ConeContact(SlipBound):
         return forces
 
     def destroy(self) -> None:
-        """Free the scatter and its local vector."""
+        """Free the scatters and their local vectors."""
         self._scatter.destroy()
         self._local.destroy()
+        self.watched.destroy()
 

@@ -11,7 +11,8 @@ from suture_fem.geometry import regions
 
 def notes(contact: Any) -> dict[str, Any]:
     """A :class:`~.cone_contact.ConeContact`'s numbers: its pairs, penalty and search, and (Coulomb) its friction."""
-    track, near = (int(v) for v in contact.comm.allreduce(np.array([contact.track.sum(), contact.near.sum()])))
+    track, near, watched = (int(v) for v in contact.comm.allreduce(np.array([contact.track.sum(), contact.near.sum(),
+                                                                               contact.watched.count])))
     out: dict[str, Any] = {"cone_contact_pairs": int(contact.comm.allreduce(contact.pairs)) - track - near,
                            "cone_contact_penalty_pa_per_m": contact.kappa,
                            "cone_contact_search": "each tissue node's nearest point on its cone's outline, the "
@@ -19,7 +20,7 @@ def notes(contact: Any) -> dict[str, Any]:
                                                   "every residual and Jacobian evaluation",
                            "cone_contact_corner_radius_mm": contact.corner_mm,
                            "cone_contact_method": "augmented" if contact.augmented else "penalty"}
-    out["cone_contact_next_layer_nodes"] = near
+    out["cone_contact_next_layer_nodes"] = near + watched
     out["cone_contact_next_layer_search"] = (("the tissue's nodes one element off a cone, each against its nearest "
                                               "cone at rest: unilateral and frictionless") if contact.hold_next_layer
                                              else "the tissue's nodes one element off a cone: measured (how deep "

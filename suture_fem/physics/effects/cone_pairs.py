@@ -16,7 +16,8 @@ below every cone. A cone then pushes the track's tissue ahead of its apex instea
 
 The tissue's next layer of nodes (of a tissue cell with a node on a cone's surface, themselves on no cone or track)
 joins the search too, each against its nearest cone at rest, as unilateral and frictionless whatever the cones'
-model (held off the cones with nothing tied, only measured with the thread tied: ``hold_next_layer``): tissue
+model (held off the cones with nothing tied; with the thread tied only measured, by :class:`WatchedLayer`, and not
+among the pairs, so the solve is the one without them): tissue
 sliding round a cone's corner stretches its facets there and draws these nodes onto the cone, which the surface's
 nodes alone let through (docs/contact.md, "The apex-cap stall"). At rest they lie an element off the cone, so until
 one touches, nothing changes. Having no facet, each has the area of a facet one suture element long: 2 pi r h (3-D:
@@ -40,6 +41,7 @@ from suture_fem.geometry import regions
 from suture_fem.geometry.outline import meridian, project
 from suture_fem.geometry.regions import Facet
 from suture_fem.physics.constraints import mark_dofs, mark_facet_nodes
+from suture_fem.physics.effects import cone_frame
 from suture_fem.physics.effects.friction import global_dofs
 from suture_fem.physics.kinematics import HALF_MODEL_WEIGHT
 from suture_fem.support import compat
@@ -48,8 +50,11 @@ from suture_fem.support import compat
 CORNER_ROUNDING = 0.1
 
 
-def cone_pairs(physics: Any) -> dict[str, Any]:
-    """The owned cone-contact nodes of the tissue, their cones, lumped areas and the cones' axial dofs (collective)."""
+def cone_pairs(physics: Any, hold_next_layer: bool = True) -> dict[str, Any]:
+    """The owned cone-contact nodes of the tissue, their cones, lumped areas and the cones' axial dofs (collective).
+
+    ``hold_next_layer``: the next layer joins the pairs (``near``); else it is returned apart, ``watched``.
+    """
     V, mesh, tagged = physics.V, physics.mesh, physics.tagged
     fdim = mesh.topology.dim - 1
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)
@@ -87,12 +92,16 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
         track = np.zeros(0, dtype=np.int64)
     outlines = [c.rounded(rho, tagged.geometry.r_thread, to_axis=True) for c in cones]
     near = _next_layer(physics, on_cones, suture, track)
-    nodes = np.concatenate([nodes, near])
-    cone = np.concatenate([cone, _nearest(xy[near], outlines)])
-    h = tagged.sizes.suture * regions.MM
-    area[near] = 2 * math.pi * xyz[near, 0] * regions.MM * h if dim == 2 else HALF_MODEL_WEIGHT * h * h
-    layer = np.concatenate([np.zeros(len(own), dtype=bool), np.ones(len(near), dtype=bool)])
-    own = np.concatenate([own, np.zeros(len(near), dtype=bool)])
+    watched = {"dofs": np.stack([global_dofs(physics, near, c) for c in range(dim)], axis=1), "X": xyz[near],
+               "cone": _nearest(xy[near], outlines)}
+    if hold_next_layer:
+        nodes = np.concatenate([nodes, near])
+        cone = np.concatenate([cone, watched["cone"]])
+        h = tagged.sizes.suture * regions.MM
+        area[near] = 2 * math.pi * xyz[near, 0] * regions.MM * h if dim == 2 else HALF_MODEL_WEIGHT * h * h
+        watched = {key: value[:0] for key, value in watched.items()}
+    layer = np.concatenate([np.zeros(len(own), dtype=bool), np.ones(len(nodes) - len(own), dtype=bool)])
+    own = np.concatenate([own, np.zeros(len(nodes) - len(own), dtype=bool)])
     cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)
     faces = mark_facet_nodes(V, fdim, meshmod.facets(tagged, Facet.INTERFACE))
     surface = np.flatnonzero(cone_cells & faces)
@@ -103,7 +112,40 @@ def cone_pairs(physics: Any) -> dict[str, Any]:
                  for c in range(len(cones))]
     dofs = np.stack([global_dofs(physics, nodes, c) for c in range(dim)], axis=1)
     return {"nodes": nodes, "dofs": dofs, "X": xyz[nodes], "cone": cone, "weight": area[nodes], "surface": own,
-            "near": layer, "cone_dofs": cone_dofs, "corner_mm": rho, "outlines": outlines}
+            "near": layer, "watched": watched, "hold_next_layer": hold_next_layer, "cone_dofs": cone_dofs,
+            "corner_mm": rho, "outlines": outlines}
+
+
+class WatchedLayer:
+    """The next layer's nodes measured, not held (the thread tied): how deep inside its nearest cone each lies."""
+
+    def __init__(self, state: Any, watched: dict[str, np.ndarray] | None, outlines: list, dim: int):
+        """``state``: the state's PETSc vector; ``watched``: :func:`cone_pairs`'s ``watched`` (this rank's), or None."""
+        if watched is None:
+            watched = {"dofs": np.zeros((0, dim), dtype=np.int64), "X": np.zeros((0, dim)), "cone": np.zeros(0, int)}
+        self.X, self.cone, self.outlines = watched["X"], watched["cone"], outlines
+        self.count = len(self.cone)
+        self._local = PETSc.Vec().createSeq(watched["dofs"].size, comm=PETSc.COMM_SELF)
+        index = PETSc.IS().createGeneral(watched["dofs"].ravel().astype(PETSc.IntType), comm=PETSc.COMM_SELF)
+        self._scatter = PETSc.Scatter().create(state, index, self._local, None)
+        index.destroy()
+
+    def depth(self, u_vec: Any, t_c: np.ndarray) -> float:
+        """The deepest watched node inside its cone (m, 0 with none inside) on this rank; t_c: the cones' shifts (m)."""
+        self._scatter.scatter(u_vec, self._local, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        u = self._local.getArray(readonly=True).reshape(self.count, self.X.shape[1])  # collective, even when empty
+        y = cone_frame.moved(self.X, u, t_c[self.cone], regions.MM)[0]
+        deepest = 0.0
+        for c, outline in enumerate(self.outlines):
+            sel = self.cone == c
+            if sel.any():
+                deepest = max(deepest, float(np.max(-project(y[sel], outline).distance)) * regions.MM)
+        return deepest
+
+    def destroy(self) -> None:
+        """Free the scatter and its local vector."""
+        self._scatter.destroy()
+        self._local.destroy()
 
 
 def _next_layer(physics: Any, on_cones: np.ndarray, suture: np.ndarray, track: np.ndarray) -> np.ndarray:

@@ -91,29 +91,33 @@ def cone_pairs(physics: Any, hold_next_layer: bool = True) -> dict[str, Any]:
     else:
         track = np.zeros(0, dtype=np.int64)
     outlines = [c.rounded(rho, tagged.geometry.r_thread, to_axis=True) for c in cones]
-    near = _next_layer(physics, on_cones, suture, track)
-    watched = {"dofs": np.stack([global_dofs(physics, near, c) for c in range(dim)], axis=1), "X": xyz[near],
-               "cone": _nearest(xy[near], outlines)}
-    if hold_next_layer:
-        nodes = np.concatenate([nodes, near])
-        cone = np.concatenate([cone, watched["cone"]])
-        h = tagged.sizes.suture * regions.MM
-        area[near] = 2 * math.pi * xyz[near, 0] * regions.MM * h if dim == 2 else HALF_MODEL_WEIGHT * h * h
+    watched = _next_layer(physics, on_cones, suture, track, xyz, outlines)
+    if hold_next_layer:  # among the pairs
+        near = watched["nodes"]
+        nodes, cone = np.concatenate([nodes, near]), np.concatenate([cone, watched["cone"]])
+        area[near] = _facet_like_area(xyz[near], tagged.sizes.suture * regions.MM)
         watched = {key: value[:0] for key, value in watched.items()}
     layer = np.concatenate([np.zeros(len(own), dtype=bool), np.ones(len(nodes) - len(own), dtype=bool)])
     own = np.concatenate([own, np.zeros(len(nodes) - len(own), dtype=bool)])
-    cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)
-    faces = mark_facet_nodes(V, fdim, meshmod.facets(tagged, Facet.INTERFACE))
-    surface = np.flatnonzero(cone_cells & faces)
-    surface = surface[surface < owned]
-    of_surface = _cone_of(xy[surface], cones, tagged.geometry.z_end)
-    axial = global_dofs(physics, surface, 1)
-    cone_dofs = [np.concatenate(physics.comm.allgather(axial[of_surface == c])).astype(np.int64)
-                 for c in range(len(cones))]
+    cone_dofs = _cone_axial_dofs(physics, xy)
     dofs = np.stack([global_dofs(physics, nodes, c) for c in range(dim)], axis=1)
     return {"nodes": nodes, "dofs": dofs, "X": xyz[nodes], "cone": cone, "weight": area[nodes], "surface": own,
             "near": layer, "watched": watched, "hold_next_layer": hold_next_layer, "cone_dofs": cone_dofs,
             "corner_mm": rho, "outlines": outlines}
+
+
+def _cone_axial_dofs(physics: Any, xy: np.ndarray) -> list[np.ndarray]:
+    """Per cone, the global axial dofs of its interface nodes, every rank's (collective); xy: (r, axial) per node."""
+    V, tagged = physics.V, physics.tagged
+    n_local, owned = len(xy), V.dofmap.index_map.size_local
+    cone_cells = mark_dofs(V, meshmod.region_cells(tagged, regions.Cell.CONE)).reshape(n_local, -1).any(axis=1)
+    faces = mark_facet_nodes(V, physics.mesh.topology.dim - 1, meshmod.facets(tagged, Facet.INTERFACE))
+    surface = np.flatnonzero(cone_cells & faces)
+    surface = surface[surface < owned]
+    of_surface = _cone_of(xy[surface], tagged.geometry.cones, tagged.geometry.z_end)
+    axial = global_dofs(physics, surface, 1)
+    return [np.concatenate(physics.comm.allgather(axial[of_surface == c])).astype(np.int64)
+            for c in range(len(tagged.geometry.cones))]
 
 
 class WatchedLayer:
@@ -148,18 +152,30 @@ class WatchedLayer:
         self._local.destroy()
 
 
-def _next_layer(physics: Any, on_cones: np.ndarray, suture: np.ndarray, track: np.ndarray) -> np.ndarray:
-    """The owned nodes of the tissue cells with a node ``on_cones``, on no cone, suture or ``track`` (collective).
+def _facet_like_area(xyz_mm: np.ndarray, h: float) -> np.ndarray:
+    """A next-layer node's area (m^2): that of a facet one suture element (h, m) long, 2 pi r h (3-D: 2 h^2)."""
+    if xyz_mm.shape[1] == 2:
+        return 2 * math.pi * xyz_mm[:, 0] * regions.MM * h
+    return np.full(len(xyz_mm), HALF_MODEL_WEIGHT * h * h)
 
-    ``on_cones``, ``suture``: per local node; ``track``: the track's owned nodes in the search.
+
+def _next_layer(physics: Any, on_cones: np.ndarray, suture: np.ndarray, track: np.ndarray, xyz: np.ndarray,
+                outlines: list) -> dict[str, np.ndarray]:
+    """The next layer's owned nodes, their global dofs (nodes, dim), positions (mm) and nearest cones (collective).
+
+    The nodes of the tissue cells with a node ``on_cones``, themselves on no cone, suture or ``track``.
+    ``on_cones``, ``suture``: per local node; ``track``: the track's owned nodes in the search; ``xyz``: every
+    local node's reference position (mm).
     """
-    V, tagged = physics.V, physics.tagged
+    V, tagged, dim = physics.V, physics.tagged, physics.mesh.geometry.dim
     n_cells = physics.mesh.topology.index_map(physics.mesh.topology.dim).size_local
     cells = np.setdiff1d(np.arange(n_cells, dtype=np.int32), meshmod.region_cells(tagged, regions.SUTURE))
     touching = cells[on_cones[compat.cell_dofs(V)[cells]].any(axis=1)].astype(np.int32)
     layer = mark_dofs(V, touching).reshape(len(on_cones), -1).any(axis=1) & ~on_cones & ~suture
     layer[track] = False
-    return np.flatnonzero(layer[: V.dofmap.index_map.size_local])
+    near = np.flatnonzero(layer[: V.dofmap.index_map.size_local])
+    return {"nodes": near, "dofs": np.stack([global_dofs(physics, near, c) for c in range(dim)], axis=1),
+            "X": xyz[near], "cone": _nearest(meridian(xyz[near]), outlines)}
 
 
 def _nearest(xy_mm: np.ndarray, outlines: list) -> np.ndarray:

@@ -161,6 +161,20 @@ def project(points: np.ndarray, outline: list) -> Projection:
                       corner=corner, curvature=curvature)
 
 
+def convex_corners(outline: list) -> np.ndarray:
+    """The midpoint of each arc round a convex part of the cone (r > 0: off the axis), (k, 2) mm.
+
+    The search's rounded corners and the real fillets: where the cone's surface can cut the tissue's facets.
+    """
+    segments, _, _, signs = _prepared(_key(outline))
+    out = []
+    for (kind, pts), convex in zip(segments, signs):
+        if kind == "arc" and convex > 0 and min(pts[0][0], pts[2][0]) > 0.0:
+            radius, a0, sweep = _arc_shape(*pts)
+            out.append(pts[1] + radius * np.array([math.cos(a0 + 0.5 * sweep), math.sin(a0 + 0.5 * sweep)]))
+    return np.array(out, dtype=float).reshape(-1, 2)
+
+
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 

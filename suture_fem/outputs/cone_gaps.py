@@ -21,7 +21,8 @@ from suture_fem.support import compat
 #: above a closed node's penalty penetration's sign noise.
 SEPARATION_MM = 1e-4
 #: A report warns when the tissue's next layer, only measured (the thread tied), lies deeper than this inside a
-#: cone (mm): a tenth of the tissue's elements at the cones (about 46 um at P1).
+#: cone, or a cone's corner, only measured, inside the tissue's facets (mm): a tenth of the tissue's elements at
+#: the cones (about 46 um at P1).
 NEXT_LAYER_WARNING_MM = 5e-3
 
 log = logging.getLogger("suture_fem")
@@ -65,6 +66,10 @@ def cone_record(physics: Any, profiles: dict[str, Any], names: list[str]) -> dic
     if not contact.hold_next_layer and depth > NEXT_LAYER_WARNING_MM and physics.comm.rank == 0:
         log.warning("the tissue's next layer lies %.3g mm inside a cone (measured, not held with the thread tied: "
                     "docs/contact.md, \"The tissue's next layer in the search\")", depth)
+    corner = record.get("corner_penetration_max_mm", 0.0)
+    if contact.held is None and corner > NEXT_LAYER_WARNING_MM and physics.comm.rank == 0:
+        log.warning("a cone's corner lies %.3g mm inside the tissue's facets (measured, not held: effects.cone_corners "
+                    "= \"held\" holds it, docs/contact.md \"The cones' corners against the tissue's facets\")", corner)
     if contact.mu > 0.0:
         record["coulomb_residual_n"] = contact.residual()
     return {"cone_contact": record}

@@ -165,6 +165,7 @@ class EffectsSection(_Section):
     cone_contact_method: str = key(Rule("str", choices=("augmented", "penalty")))
     augmented_penalty: float = key(_pos(1e8))
     contact_penetration_mm: float = key(_pos(1.0), MM)
+    cone_corners: str = key(Rule("str", choices=("measured", "held")))
     friction_coefficient: float = key(Rule("float", lo=0.0, hi=2.0))
     friction_slip_mm: float = key(_pos(1.0), MM)
 

@@ -2,53 +2,41 @@
 
 The mesh gives the tissue its own nodes on every cone surface (facets tagged ``cone_contact``;
 :func:`~suture_fem.geometry.gmsh_model.split_interfaces`). The cone is nearly rigid (its modulus is five orders
-above the tissue's), so its surface now is taken as its reference outline moved axially by the cone's mean axial
-displacement t_c (the mean u_z of its interface nodes; exactly its motion for the rigid suture). The contact search
-follows each tissue node a wherever it slides: at every residual and Jacobian evaluation its position relative to
-the cone, y = X_a + u_a - t_c e_z, is projected onto the outline (:func:`~suture_fem.geometry.outline.project`: the
-nearest point, arc length s, signed distance phi, positive outside, outward normal n and tangent T). The search's
-outline has each sharp convex corner off the thread rounded by a tenth of the suture's element size, less on a short
-edge (:meth:`~suture_fem.geometry.section.Cone.rounded`; the fillets kept): at a sharp corner the normal jumps and a
-node pressed into it has two equilibria (the same scene gave 4.908 and 4.945 mm on one and two ranks before); the
-rounding vanishes with the mesh. Distances are measured from each node's reference distance (zero but at a rounded
-corner, where the node starts a few um off the arc): at rest every node touches and nothing is pressed. With w the
-node's lumped 2 pi r-weighted area (m^2) and kappa the frictionless thread's penalty stiffness
-(:func:`~suture_fem.physics.effects.contact.penalty_stiffness`), the potential is
+above the tissue's): its surface now is its reference outline moved axially by t_c, the mean u_z of its interface
+nodes. At every residual and Jacobian evaluation each tissue node's place relative to its cone, y = X_a + u_a - t_c
+e_z, is projected onto the outline (:func:`~suture_fem.geometry.outline.project`: arc length s, signed distance phi,
+positive outside, outward normal n, tangent T), so the search follows it wherever it slides. The search's outline
+has each sharp convex corner off the thread rounded by a tenth of the suture's element size
+(:meth:`~suture_fem.geometry.section.Cone.rounded`): at a sharp corner the normal jumps and a pressed node has two
+equilibria (4.908 and 4.945 mm on one and two ranks before). Distances count from each node's reference distance
+(a few um at a rounded corner), so at rest nothing is pressed. With w the node's 2 pi r-weighted lumped area (m^2)
+and kappa the penalty (:func:`~suture_fem.physics.effects.contact.penalty_stiffness`), the potential is
 
     sliding:        sum_a 1/2 kappa w phi^2        (bilateral: the tissue stays on the cone's surface)
     frictionless:   sum_a 1/2 kappa w <-phi>^2     (unilateral: the tissue may lift off, not enter)
     coulomb:        frictionless + sum_a w b s ln cosh(g / s),   g = s(y) - s(X_a),
 
-p = kappa <-phi> the contact pressure and g the total slip along the outline (a deformation theory, as for the
-thread). Coulomb's bound b is frozen during a Newton solve and moved to mu p between solves, as for the thread
-(:class:`~suture_fem.physics.effects.friction.SlipBound`). The friction acts along T, the tangent at the nearest
-point: exactly the slip's gradient beside a straight segment, and within phi / R of it beside an arc of radius R
-(off a corner the nearest point, and so s, stays put while T does not; taking the arc length's own gradient there
-left the friction's Hessian a term of order t / R short, and the Coulomb cones stopped at 0.2-0.3 N instead of
-reaching 4 N). The Jacobian is the penalty's exact Hessian where closed, kappa w (n n^T + phi d2 phi), the
-distance's curvature d2 phi from the search (0 beside a straight segment), plus the friction's w t'(g) T T^T (the
-turning of T left out). A node's terms couple its dofs (3 in 3-D) with the axial dofs of its cone's interface nodes
-(through t_c), so the matrix pattern is set once, whatever the node slides past.
+p = kappa <-phi> the pressure, g the total slip along the outline. Coulomb's bound b is frozen during a Newton
+solve and moved to mu p between solves (:class:`~suture_fem.physics.effects.friction.SlipBound`). The friction acts
+along T, within phi / R of the slip's gradient beside an arc of radius R (the arc length's own gradient left the
+Hessian a term t / R short: the Coulomb cones stopped at 0.2-0.3 N). The Jacobian is kappa w (n n^T + phi d2 phi)
+where closed (d2 phi the distance's curvature, 0 beside a line) plus the friction's w t'(g) T T^T. A node's terms
+couple its dofs with its cone's axial dofs (through t_c): the matrix pattern is set once.
 
-The unilateral models default to an augmented Lagrangian (``effects.cone_contact_method``; Wriggers 2006, section
-6.3): 1/2 kappa <-phi>^2 becomes (<lambda - kappa phi>^2 - lambda^2) / (2 kappa), so p = <lambda - kappa phi>, with
-the multiplier lambda frozen during a Newton solve and moved toward p between solves (:meth:`ConeContact.update`,
-Aitken-relaxed; the state follows an update by a chord step where :func:`~.fixed_point.settle` allows) until every
-pressed node is within ``effects.contact_penetration_mm`` of its cone. The Hessian is then kappa w n n^T where
-pressed minus w p d2 phi; with lambda = 0 the penalty's.
+The unilateral models default to an augmented Lagrangian (``effects.cone_contact_method``; Wriggers 2006, 6.3):
+p = <lambda - kappa phi>, the potential (<lambda - kappa phi>^2 - lambda^2) / (2 kappa), lambda frozen during a
+Newton solve and moved toward p between solves (:meth:`ConeContact.update`, Aitken-relaxed; chord steps where
+:func:`~.fixed_point.settle` allows) until every pressed node is within ``effects.contact_penetration_mm``.
 
-The tissue's next layer of nodes (an element off a cone at rest) is searched too (:mod:`.cone_pairs`): tissue
-folding round a cone's corner draws it through the cone. With nothing tied it is held off, unilateral and without
-friction; with the thread tied it is only measured (held, the paper scene's frictionless cones stop at 3.67 N).
+Searched too: the tissue's next layer of nodes (:mod:`.cone_pairs`; held off the cones with nothing tied, only
+measured with the thread tied: held, the paper scene's frictionless cones stopped at 3.67 N), and the unilateral
+cones' corners against the tissue's facets (:mod:`.cone_corners`, 2-D): tissue folding round a corner lets it
+through between the surface's nodes.
 
-Left out: the cone's own deformation in the search (a cone passes at most 0.8 N in the runs of docs/contact.md: its
-wall's axial strain stays below 0.2 %, a few um over the cone; the peak contact pressure, about 1 MPa, strains it
-radially by under 1e-3). The terms are assembled by hand into the full residual and Jacobian before the solver's
-reduction, like the thread's friction (UFL forms cannot couple nodes that share no cell).
-
-In 3-D (the half model, the thread along y) a node's place y is (sqrt(x^2 + z^2), y - t_c) in the meridian plane, its
-gradient and Hessian carried back to its three dofs with r's own curvature, the hoop term (:mod:`.cone_frame`); w is
-weighted by the half model's 2 instead of 2 pi r.
+Left out: the cone's own deformation in the search (its wall's axial strain stays below 0.2 % at 0.8 N a cone; a
+1 MPa pressure strains it radially by under 1e-3). The terms are assembled by hand into the full residual and
+Jacobian (UFL forms cannot couple nodes that share no cell). In 3-D (the half model) a node's place is its meridian
+(r, y - t_c), carried back to its three dofs by :mod:`.cone_frame`; w is weighted by the half model's 2.
 """
 
 from __future__ import annotations
@@ -64,6 +52,7 @@ from petsc4py import PETSc
 from suture_fem.geometry import regions
 from suture_fem.geometry.outline import deepest_on_way, project
 from suture_fem.physics.effects import cone_frame, cone_notes
+from suture_fem.physics.effects.cone_corners import CornerPass, chain
 from suture_fem.physics.effects.cone_pairs import WatchedLayer, cone_pairs
 from suture_fem.physics.effects.contact import cones_augmented, penalty_stiffness
 from suture_fem.physics.effects.fixed_point import Aitken, update_norms
@@ -131,6 +120,8 @@ class ConeContact(SlipBound):
         self.track = ~self.surface & ~self.near
         self.hold_next_layer = bool(pairs.get("hold_next_layer", True))  # else measured only (:meth:`status`)
         self.watched = WatchedLayer(state, pairs.get("watched"), self.outlines, self.dofs.shape[1])
+        self.corners: CornerPass | None = None  # the cones' corners against the tissue's facets (:meth:`on`)
+        self.held: CornerPass | None = None  # the same, when held out of the tissue (else only measured)
         for sel, outline in zip(self._of_cone, self.outlines):
             start = project(self.X[sel], outline)
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
@@ -164,6 +155,11 @@ class ConeContact(SlipBound):
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
                       target, convexified=p2, touch_holds=section.thread_track or p2,
                       wall_m=scene.geometry.cone_wall_mm * regions.MM)
+        if not contact.bilateral and physics.mesh.geometry.dim == 2:
+            pieces = chain(physics, contact.outlines)
+            contact.corners = CornerPass(physics.comm, contact._state, pieces, contact.outlines, contact.cone_dofs,
+                                         kappa, physics.tagged.sizes.suture * regions.MM)
+            contact.held = contact.corners if section.cone_corners == "held" else None
         physics.notes.setdefault("interfaces", {}).update(cone_notes.notes(contact))
         return contact
 
@@ -253,15 +249,20 @@ class ConeContact(SlipBound):
         p, closed = self._pressure(phi)
         depth = np.where(closed, np.abs(phi), 0.0)  # pressed nodes off the surface, inside or (lambda > 0) outside
         worst = float(self.comm.allreduce(float(np.max(depth, initial=0.0)), op=MPI.MAX))
+        t_c, corners = self.search(self._state)["t_c"], self.held
+        worst = max(worst, corners.worst(self._state, t_c)) if corners else worst
         log.debug("cones' contact: %d nodes pressed, the farthest %.3g mm off its cone (target %.3g mm)",
                   self.comm.allreduce(int(np.count_nonzero(closed))), worst / regions.MM, self.target / regions.MM)
         r, old = p - self.multiplier, self.multiplier  # Uzawa moves lambda to p; Aitken's factor speeds it up
+        extra = (np.zeros(0),) * 3  # the corners' (rank 0's) residual, change and multipliers
         if worst > self.target:
             self.multiplier = np.maximum(old + self._uzawa.factor(r * self.weight) * r, 0.0)  # unilateral
+            extra = corners.move(self._state, t_c) if corners else extra
         if self.mu == 0.0:  # what decides a chord step next (:func:`~.fixed_point.settle`; with Coulomb, its bound's)
-            self.last_residual, self.last_change = update_norms(self.comm, self.weight * r,
-                                                            self.weight * (self.multiplier - old),
-                                                            self.weight * self.multiplier)
+            self.last_residual, self.last_change = update_norms(
+                self.comm, np.concatenate([self.weight * r, extra[0]]),
+                np.concatenate([self.weight * (self.multiplier - old), extra[1]]),
+                np.concatenate([self.weight * self.multiplier, extra[2]]))
         return settled and worst <= self.target
 
     def start(self) -> None:
@@ -270,17 +271,21 @@ class ConeContact(SlipBound):
         self._uzawa = Aitken(self.comm, UZAWA_OMEGA_MAX)
 
     def frozen(self) -> tuple[np.ndarray, ...]:
-        """Copies of the Coulomb bound and the multipliers: a state's part, kept with it."""
-        return self.bound.copy(), self.multiplier.copy()
+        """Copies of the Coulomb bound and the multipliers (the corners' last): a state's part, kept with it."""
+        return self.bound.copy(), self.multiplier.copy(), *([self.held.multiplier.copy()] if self.held else [])
 
     def thaw(self, kept: tuple[np.ndarray, ...]) -> None:
         """Set what :meth:`frozen` returned."""
         self.bound, self.multiplier = kept[0].copy(), kept[1].copy()
+        if self.held:
+            self.held.multiplier = kept[2].copy()
 
     def reset(self) -> None:
         """At rest: no pressure, no slip bound, no multiplier."""
         self.bound[:] = 0.0
         self.multiplier[:] = 0.0
+        if self.held:
+            self.held.multiplier[:] = 0.0
 
     def _law(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         th = np.tanh(g / self.slip)
@@ -294,7 +299,8 @@ class ConeContact(SlipBound):
         if self.mu > 0.0:
             x = np.abs(found["g"]) / self.slip
             value = value + self.weight * self.bound * self.slip * (x + np.log1p(np.exp(-2.0 * x)) - math.log(2.0))
-        return float(self.comm.allreduce(float(np.sum(value))))
+        corners = self.held.potential(u_vec, found["t_c"]) if self.held else 0.0  # every rank's the same
+        return float(self.comm.allreduce(float(np.sum(value)))) + corners
 
     def _gradient(self, u_vec: Any) -> np.ndarray:
         """Per pair: dE/dy (pairs, 2), N; y the node's place in the meridian plane (:mod:`.cone_frame`)."""
@@ -339,6 +345,8 @@ class ConeContact(SlipBound):
                 values.append(np.full(len(dofs), -float(np.sum(grad[self.cone == c, 1])) / len(dofs)))
         b.setValues(np.concatenate(rows).astype(PETSc.IntType), np.concatenate(values),
                     addv=PETSc.InsertMode.ADD_VALUES)
+        if self.held:
+            self.held.add_residual(u_vec, self.search(u_vec)["t_c"], b)
         b.assemble()
 
     def add_jacobian(self, u_vec: Any, A: Any) -> None:
@@ -347,35 +355,21 @@ class ConeContact(SlipBound):
         K_aa = H, K_ab = -H[:, z] alpha, K_bb = sum_a H_zz alpha alpha^T for every pair's H (alpha = 1 / n_b).
         """
         self._layout.add(A, self._hessian(u_vec))
+        if self.held:
+            self.held.add_jacobian(u_vec, self.search(u_vec)["t_c"], A)
         A.assemble()
 
     def extend_pattern(self, A: Any) -> None:
         """Make room in A, once, for every coupling the terms add (:func:`~.pattern.widen`)."""
-        widen(A, *self._layout.entries())
+        rows, cols = self._layout.entries()
+        if self.held:
+            more = self.held.entries()
+            rows, cols = np.concatenate([rows, more[0]]), np.concatenate([cols, more[1]])
+        widen(A, rows, cols)
 
     def status(self, u_vec: Any) -> dict[str, Any]:
-        """How many nodes on the cones are closed and stick, closed and slip, open; the track's and the next layer's.
-
-        Of the track's and the next layer's, how many are pressed and how deep the deepest lies inside its cone.
-        All ranks'; ``track_pressed_nodes`` only with the track's tissue in the search.
-        """
-        found = self.search(u_vec)
-        closed = self._pressure(found["phi"])[1]
-        stick = closed & (np.abs(found["g"]) < 2.0 * self.slip) if self.mu > 0.0 else np.zeros(self.pairs, bool)
-        on = self.surface
-        counts = np.array([(stick & on).sum(), (closed & ~stick & on).sum(), (~closed & on).sum(),
-                           (closed & self.track).sum(), self.track.sum(), (closed & self.near).sum()])
-        stick_n, slip_n, open_n, pressed_n, track_n, near_n = (int(v) for v in self.comm.allreduce(counts))
-        out: dict[str, Any] = {"stick_nodes": stick_n, "slip_nodes": slip_n, "open_nodes": open_n}
-        inside = -found["phi"]
-        if track_n:  # the track's tissue a cone pushes ahead of it, and how far into the cone the deepest lies
-            deepest = float(np.max(inside[self.track], initial=0.0))
-            out["track_pressed_nodes"] = pressed_n
-            out["track_penetration_max_mm"] = float(self.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
-        deepest = max(float(np.max(inside[self.near], initial=0.0)), self.watched.depth(u_vec, found["t_c"]))
-        out["next_layer_pressed_nodes"] = near_n
-        out["next_layer_penetration_max_mm"] = float(self.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
-        return out
+        """The pressed, sticking, slipping and open nodes and the deepest ones (:func:`.cone_notes.status`)."""
+        return cone_notes.status(self, u_vec)
 
     def pushes(self, u_vec: Any) -> tuple[np.ndarray, np.ndarray]:
         """Per cone, the axial force (N) its contact passes to the track's tissue and to the next layer (all ranks)."""
@@ -396,4 +390,6 @@ class ConeContact(SlipBound):
         self._scatter.destroy()
         self._local.destroy()
         self.watched.destroy()
+        if self.corners:
+            self.corners.destroy()
 

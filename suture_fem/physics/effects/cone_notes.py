@@ -1,10 +1,11 @@
-"""The cones' contact in results.json's ``effects.interfaces``: its pairs, penalty, search and friction."""
+"""The cones' contact in results.json: its pairs, penalty, search and friction (``effects.interfaces``), its state."""
 
 from __future__ import annotations
 
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
 from suture_fem.geometry import regions
 
@@ -25,6 +26,11 @@ def notes(contact: Any) -> dict[str, Any]:
                                               "cone at rest: unilateral and frictionless") if contact.hold_next_layer
                                              else "the tissue's nodes one element off a cone: measured (how deep "
                                                   "inside its nearest cone the deepest lies), not held off it")
+    if contact.corners is not None:
+        out["cone_contact_corners"] = contact.corners.count
+        held = "held out of the tissue" if contact.held else "measured, not held"
+        out["cone_contact_corner_search"] = ("each cone's convex corners (its search outline's arcs' midpoints) "
+                                             f"against the tissue's facets on it: {held}")
     if track:
         out["cone_contact_track_nodes"] = track
         out["cone_contact_track_search"] = ("each of the track's tissue nodes against the cone that slides toward "
@@ -36,3 +42,29 @@ def notes(contact: Any) -> dict[str, Any]:
     if contact.model == "coulomb":
         out.update({"cone_friction_coefficient": contact.mu, "friction_slip_mm": contact.slip / regions.MM})
     return out
+
+
+def status(contact: Any, u_vec: Any) -> dict[str, Any]:
+    """How many nodes on the cones are closed and stick, closed and slip, open; the track's and the next layer's.
+
+    Of the track's and the next layer's, how many are pressed and how deep the deepest lies inside its cone; the
+    corners' (:mod:`.cone_corners`) likewise. All ranks'; ``track_pressed_nodes`` only with the track's tissue in
+    the search.
+    """
+    found = contact.search(u_vec)
+    closed = contact._pressure(found["phi"])[1]
+    stick = closed & (np.abs(found["g"]) < 2.0 * contact.slip) if contact.mu > 0.0 else np.zeros(contact.pairs, bool)
+    on, track, near = contact.surface, contact.track, contact.near
+    counts = np.array([(stick & on).sum(), (closed & ~stick & on).sum(), (~closed & on).sum(),
+                       (closed & track).sum(), track.sum(), (closed & near).sum()])
+    stick_n, slip_n, open_n, pressed_n, track_n, near_n = (int(v) for v in contact.comm.allreduce(counts))
+    out: dict[str, Any] = {"stick_nodes": stick_n, "slip_nodes": slip_n, "open_nodes": open_n}
+    inside = -found["phi"]
+    if track_n:  # the track's tissue a cone pushes ahead of it, and how far into the cone the deepest lies
+        deepest = float(np.max(inside[track], initial=0.0))
+        out["track_pressed_nodes"] = pressed_n
+        out["track_penetration_max_mm"] = float(contact.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
+    deepest = max(float(np.max(inside[near], initial=0.0)), contact.watched.depth(u_vec, found["t_c"]))
+    out["next_layer_pressed_nodes"] = near_n
+    out["next_layer_penetration_max_mm"] = float(contact.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
+    return {**out, **(contact.corners.status(u_vec, found["t_c"]) if contact.corners else {})}

@@ -1,0 +1,93 @@
+"""The cones' corners against the tissue's facets (``effects.cone_corners``; physics/effects/cone_corners.py).
+
+Checked here: at rest every corner lies inside its cone, off the tissue; a cone moved ahead of the tissue puts its
+apex corner inside the tissue by the move less that offset (a closed form), measured and reported; held, the
+corners' terms are the derivatives of their potential (gradient and the exact Hessian against central
+differences, the nearest facet moving as the state moves) and push the facet into the tissue and the cone back;
+a scene holding the corners of cones that are not unilateral is refused before meshing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.contact.differences import matches, off_the_kink
+
+
+def _moved(held: bool, move_m: float):
+    """A one-cone paper model (P1, frictionless) with the cone moved ``move_m`` toward the pull, the tissue at rest."""
+    from petsc4py import PETSc
+
+    from suture_fem import Model, Scene
+    from suture_fem.support import compat
+
+    scene = Scene.builtin("paper").with_values({"geometry.cones": 1, "mesh.degree": 1, "mesh.refinement": 0,
+                                                "effects.cone_interface": "frictionless",
+                                                "effects.cone_corners": "held" if held else "measured"})
+    physics = Model(scene).physics
+    contact = physics.cone_contact
+    vec = compat.function_vector(physics.state)
+    rest = contact.corners.search(vec, np.zeros(1))["d"].copy()
+    vec.setValues(contact.cone_dofs[0].astype(PETSc.IntType), np.full(len(contact.cone_dofs[0]), move_m))
+    vec.assemble()
+    return physics, contact, vec, rest
+
+
+def test_a_cone_moved_ahead_puts_its_apex_corner_inside_the_tissue_by_the_move():
+    physics, contact, vec, rest = _moved(held=False, move_m=1e-4)
+    corners, cone = contact.corners, physics.tagged.geometry.cones[0]
+    assert contact.held is None and corners.count == 3  # hollow: the apex cap's corner, the base's outer and inner rims
+    assert np.all(rest > 1e-6)  # at rest each rounded corner lies inside the cone, a few um off the tissue
+    apex = int(np.argmax(corners.C[:, 1]))
+    assert rest[apex] == pytest.approx((cone.apex_z - corners.C[apex, 1]) * 1e-3, rel=1e-9)  # under the cap's face
+    status = contact.status(vec)
+    assert status["corners_inside_tissue"] == 2  # the apex corner and the base's outer rim (the flank widens down)
+    assert status["corner_penetration_max_mm"] == pytest.approx(0.1 - rest[apex] / 1e-3, rel=1e-9)
+    notes = physics.notes["interfaces"]
+    assert notes["cone_contact_corners"] == 3 and "measured" in notes["cone_contact_corner_search"]
+    b = vec.duplicate()
+    contact.add_residual(vec, b)
+    held_physics, held, held_vec, _ = _moved(held=True, move_m=1e-4)
+    c = held.search(held_vec)["t_c"]
+    found = held.corners.search(held_vec, c)
+    a_node, b_node = held.corners.pieces[found["piece"][apex]]
+    assert held.held is held.corners and found["n"][apex] == pytest.approx([0.0, -1.0], abs=1e-9)  # the cap's
+    with_corners = held_vec.duplicate()
+    held.add_residual(held_vec, with_corners)
+    with_corners.axpy(-1.0, b)  # the corner's own terms: the cap's facet pushed up (into the tissue), the cone down
+    push = with_corners.getValues(held.corners.nodes[[a_node, b_node], 1].astype(np.int32))
+    cone_back = with_corners.getValues(held.cone_dofs[0].astype(np.int32))
+    assert np.all(push <= 0.0) and push.sum() < 0.0 and np.all(cone_back > 0.0)  # residual = -force
+    axial = np.union1d(held.corners.nodes[:, 1], held.cone_dofs[0])  # the facets' (a junction's is the cone's too)
+    total = with_corners.getValues(axial.astype(np.int32)).sum()
+    assert abs(total) <= 1e-12 * cone_back.sum()  # action and reaction: no net axial force
+
+
+def test_held_corners_terms_are_the_derivatives_of_their_potential():
+    """Central differences of the potential and the gradient with the apex corner 16 um inside the tissue."""
+    physics, contact, vec, _ = _moved(held=True, move_m=2e-5)
+    rng = np.random.default_rng(2)
+    noise = vec.duplicate()
+    noise.setArray(1e-7 * rng.standard_normal(noise.getLocalSize()))
+    vec.axpy(1.0, noise)
+    found = contact.corners.search(vec, contact.search(vec)["t_c"])
+    assert np.count_nonzero(found["d"] < -1e-5) == 1  # the apex corner, beside the cap's facet
+    off_the_kink(contact, rng, contact.search(vec)["phi"])
+    contact.held.multiplier[:] = 3e4  # Pa: the corners' multipliers as between solves; the open rims stay open
+    step = vec.duplicate()
+    step.setArray(1e-10 * rng.standard_normal(step.getLocalSize()))
+    slope_error, hessian_error = matches(contact, physics, vec, step)
+    assert slope_error <= 1e-6 and hessian_error <= 1e-6
+
+
+def test_holding_the_corners_of_cones_that_are_not_unilateral_is_refused():
+    from suture_fem import Scene
+    from suture_fem.physics.effects.record import check_scene  # what Model and the CLI run before meshing
+    from suture_fem.support.errors import SceneError
+
+    for model in ("tied", "sliding"):
+        scene = Scene.builtin("paper").with_values({"effects.cone_interface": model, "effects.cone_corners": "held"})
+        with pytest.raises(SceneError, match=r'effects.cone_corners = "held" needs effects.cone_interface'):
+            check_scene(scene)
+    check_scene(Scene.builtin("paper").with_values({"effects.cone_interface": "coulomb", "effects.cone_corners": "held"}))

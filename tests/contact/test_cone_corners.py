@@ -90,4 +90,5 @@ def test_holding_the_corners_of_cones_that_are_not_unilateral_is_refused():
         scene = Scene.builtin("paper").with_values({"effects.cone_interface": model, "effects.cone_corners": "held"})
         with pytest.raises(SceneError, match=r'effects.cone_corners = "held" needs effects.cone_interface'):
             check_scene(scene)
-    check_scene(Scene.builtin("paper").with_values({"effects.cone_interface": "coulomb", "effects.cone_corners": "held"}))
+    check_scene(Scene.builtin("paper").with_values({"effects.cone_interface": "coulomb",
+                                                    "effects.cone_corners": "held"}))  # allowed

@@ -201,6 +201,9 @@ def test_two_ranks_give_the_serial_frictionless_cone(tmp_path_factory, frictionl
     assert (cb["open_nodes"], cb["slip_nodes"]) == (ca["open_nodes"], ca["slip_nodes"])
     slip = ca["cones"]["cone_1"]["slip_max_mm"]
     assert cb["cones"]["cone_1"]["slip_max_mm"] == pytest.approx(slip, rel=PATH_SPREAD["slip_rel"])
+    assert cb["corners_inside_tissue"] == ca["corners_inside_tissue"] >= 1  # the apex corner, measured on both
+    depth = ca["corner_penetration_max_mm"]
+    assert cb["corner_penetration_max_mm"] == pytest.approx(depth, rel=PATH_SPREAD["slip_rel"])
 
 
 @pytest.mark.parametrize("more, named", [(["geometry.cones=0"], "geometry.cones"),

@@ -30,8 +30,8 @@ Newton solve and moved toward p between solves (:meth:`ConeContact.update`, Aitk
 
 Searched too: the tissue's next layer of nodes (:mod:`.cone_pairs`; held off the cones with nothing tied, only
 measured with the thread tied: held, the paper scene's frictionless cones stopped at 3.67 N), and the unilateral
-cones' corners against the tissue's facets (:mod:`.cone_corners`, 2-D): tissue folding round a corner lets it
-through between the surface's nodes.
+cones' corners against the tissue's facets (:mod:`.cone_corners`, 2-D; measured, held with ``effects.cone_corners``
+= "held"): tissue sliding round a corner lets the corner through between the surface's nodes.
 
 Left out: the cone's own deformation in the search (its wall's axial strain stays below 0.2 % at 0.8 N a cone; a
 1 MPa pressure strains it radially by under 1e-3). The terms are assembled by hand into the full residual and

@@ -16,12 +16,14 @@ kappa the cones' penalty, the potential is the cones' own augmented Lagrangian i
 so a corner presses the facet's nodes into the tissue (by the piece's linear weights) and the cone back along
 the normal. At rest the search's rounded corners lie inside the cone (0.41 of their radius at a right angle)
 and press nothing; a real fillet's midpoint may lie past its facets' chord, and is measured from there. The
-Jacobian is the Gauss-Newton part kappa w g g^T (the normal's turning left out), g = dd/d(dofs): -(1 - xi) n
-and -xi n on the piece's ends, n_z / n_b on each of the cone's n_b axial dofs. The multipliers move with the
-cones' (:meth:`~.cone_contact.ConeContact.update`, plain Uzawa) to the same target.
+Jacobian is exact: kappa w g g^T where pressed, g = dd/d(dofs) (-(1 - xi) n and -xi n on the piece's ends,
+n_z / n_b on each of the cone's n_b axial dofs), less w p d2d (the piece's normal turning; off a node, the
+distance's bending, kept only inside the tissue). The multipliers move with the cones'
+(:meth:`~.cone_contact.ConeContact.update`, plain Uzawa) to the same target.
 
-Every rank searches every corner against the whole chain (a few hundred pieces, gathered once); rank 0 adds the
-terms. Not in 3-D (the unilateral cones are 2-D only) nor for the bilateral sliding cones.
+``effects.cone_corners = "measured"`` (the default) only reports the corners (:meth:`CornerPass.status`); "held"
+adds their terms. Every rank searches every corner against the whole chain (a few hundred pieces, gathered once);
+rank 0 adds the terms. Not in 3-D (the unilateral cones are 2-D only) nor for the bilateral sliding cones.
 """
 
 from __future__ import annotations
@@ -104,11 +106,11 @@ class CornerPass:
 
     def _search(self, u: np.ndarray, t_c: np.ndarray) -> dict[str, np.ndarray]:
         """Each corner's nearest piece, its parameter xi, signed distance d (m) and normal n."""
-        x = self.X + u.reshape(-1, 2) / regions.MM  # relative to each piece's cone: moved back by its shift
+        x = self.X + u.reshape(-1, 2) / regions.MM  # the pieces' ends now (mm)
         a, b = self.pieces[:, 0], self.pieces[:, 1]
         shift = np.zeros((len(a), 2))
         shift[:, 1] = t_c[self.piece_cone] / regions.MM if len(t_c) else 0.0
-        pa, pb = x[a] - shift, x[b] - shift
+        pa, pb = x[a] - shift, x[b] - shift  # relative to each piece's cone: moved back by its axial shift
         edge = pb - pa
         length = np.maximum(np.linalg.norm(edge, axis=1), 1e-300)
         normal = np.stack([edge[:, 1], -edge[:, 0]], axis=1) / length[:, None]  # the tissue on the left: outward
@@ -224,7 +226,7 @@ class CornerPass:
         return float(np.max(np.where(self._pressure(d)[1], np.abs(d), 0.0), initial=0.0))
 
     def move(self, u_vec: Any, t_c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The multipliers moved to the pressure (Uzawa); rank 0's w (p - lambda), w delta lambda, w lambda (N/m)."""
+        """The multipliers moved to the pressure (Uzawa); rank 0's w (p - lambda), w delta lambda, w lambda (N)."""
         p, _ = self._pressure(self.search(u_vec, t_c)["d"])
         old, self.multiplier = self.multiplier, p.copy()
         parts = (self.weight * (p - old), self.weight * (p - old), self.weight * p)

@@ -61,6 +61,9 @@ def cone_record(physics: Any, profiles: dict[str, Any], names: list[str]) -> dic
         }
     contact = physics.cone_contact
     state = compat.function_vector(physics.state)
+    if contact.corners is not None:  # how deep each cone's deepest corner lies inside the tissue's facets
+        for name, depth in zip(names, contact.corners.depths(state, contact.search(state)["t_c"])):
+            per_cone[name]["corner_penetration_max_mm"] = depth
     record: dict[str, Any] = {"model": contact.model, **contact.status(state), "cones": per_cone}
     depth = record["next_layer_penetration_max_mm"]
     if not contact.hold_next_layer and depth > NEXT_LAYER_WARNING_MM and physics.comm.rank == 0:

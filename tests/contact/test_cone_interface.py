@@ -204,6 +204,7 @@ def test_two_ranks_give_the_serial_frictionless_cone(tmp_path_factory, frictionl
     assert cb["corners_inside_tissue"] == ca["corners_inside_tissue"] >= 1  # the apex corner, measured on both
     depth = ca["corner_penetration_max_mm"]
     assert cb["corner_penetration_max_mm"] == pytest.approx(depth, rel=PATH_SPREAD["slip_rel"])
+    assert ca["cones"]["cone_1"]["corner_penetration_max_mm"] == depth  # the one cone's is the deepest
 
 
 @pytest.mark.parametrize("more, named", [(["geometry.cones=0"], "geometry.cones"),

@@ -238,6 +238,11 @@ class CornerPass:
         return {"corners_inside_tissue": int(np.count_nonzero(d < 0.0)),
                 "corner_penetration_max_mm": float(np.max(-d, initial=0.0)) / regions.MM}
 
+    def depths(self, u_vec: Any, t_c: np.ndarray) -> list[float]:
+        """Per cone, how deep its deepest corner lies inside the tissue (mm; 0 with none inside)."""
+        d = self.search(u_vec, t_c)["d"]
+        return [float(np.max(-d[self.cone == c], initial=0.0)) / regions.MM for c in range(len(self.cone_dofs))]
+
     def destroy(self) -> None:
         """Free the scatter and its local vector."""
         self._scatter.destroy()

@@ -72,6 +72,8 @@ def advice(physics: Physics, cause: StopCause, violation: Any = None) -> str:
     walled = violation is not None and violation.quantity is Limit.CONE_DEPTH
     text = _cone_advice(effects, degree, moved, walled) if effects.cone_contact else ""
     text = _base_first_advice() if effects.cone_contact and effects.thread_track and _base_first(physics) else text
+    if getattr(getattr(physics, "cone_contact", None), "held", None) is not None:  # effects.cone_corners = "held"
+        text = HELD_CORNERS_ADVICE
     if text:
         return text
     if effects.unilateral_thread:
@@ -109,6 +111,14 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
             "pressed; which state a ramp reaches is path-picked, docs/contact.md: Two equilibria): the paper scene "
             '(4 cones, P1, force control, the default steps) reaches 4 N; effects.cone_interface = "sliding" does '
             "not release")
+
+
+#: A stop with the cones' corners held out of the tissue (``effects.cone_corners = "held"``).
+HELD_CORNERS_ADVICE = (
+    '; with the cones\' corners held (effects.cone_corners = "held") the ramps stop where the tissue slides round a '
+    "cone's corner: P1 facets pass it only node by node and the elements beside it invert (the paper scene's "
+    "frictionless cones in their first step, finer corners no better; docs/contact.md: The cones' corners against "
+    'the tissue\'s facets); the default, "measured", solves without them and reports how deep they cut')
 
 
 def _base_first(physics: Physics) -> bool:

@@ -76,3 +76,13 @@ def test_cones_pulled_base_first_with_nothing_tied_are_pointed_to_a_finer_mesh()
     for other in (cones("hollow", False), cones("full", False), cones("hollow", True, "tied"),
                   cones("hollow", True, track=False)):  # the thread tied: one cone reaches 4 mm (P1)
         assert "pulled base first" not in other
+
+
+def test_held_corners_are_pointed_to_the_measured_default():
+    held = physics(degree=1, thread=False, cones=True)
+    held.effects.cone_interface = "frictionless"
+    held.cone_contact = SimpleNamespace(held=object())  # effects.cone_corners = "held"
+    text = advice(held, StopCause.INVERTED_ELEMENT)
+    assert 'effects.cone_corners = "held"' in text and '"measured"' in text and "release" not in text
+    held.cone_contact.held = None  # measured: the release advice as before
+    assert "release" in advice(held, StopCause.INVERTED_ELEMENT)

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from suture_fem.geometry import regions
+from suture_fem.geometry.regions import TISSUE_REGIONS, WHOLE_TISSUE
 from suture_fem.support import compat
 
 #: A node counts as separated when its gap exceeds this (mm): 0.1 um, far below an element (50-150 um) and
@@ -76,6 +77,37 @@ def cone_record(physics: Any, profiles: dict[str, Any], names: list[str]) -> dic
     if contact.mu > 0.0:
         record["coulomb_residual_n"] = contact.residual()
     return {"cone_contact": record}
+
+
+def maxima_near_cut_corners(record: dict[str, Any], contact: Any, state: Any, radius_mm: float) -> list[dict[str, Any]]:
+    """The tissue's maxima in ``record`` lying near a cone's corner that cuts the tissue (collective).
+
+    A corner cuts when it lies more than NEXT_LAYER_WARNING_MM inside the tissue's facets
+    (:mod:`~suture_fem.physics.effects.cone_corners`); a stress or strain maximum (``<name>_at_mm``, reference place,
+    in a tissue region; not USUM) is near it within ``radius_mm`` (the critical distance) plus the corner's depth.
+    Per such maximum: the nearest cutting corner's cone, reference place, distance and depth (mm). ``state``: the
+    state's PETSc vector.
+    """
+    corners = contact.corners
+    depth = -corners.search(state, contact.search(state)["t_c"])["d"] / regions.MM
+    cut = np.flatnonzero(depth > NEXT_LAYER_WARNING_MM)
+    out: list[dict[str, Any]] = []
+    for key, at in record.items() if len(cut) else []:
+        name = key[: -len("_at_mm")]
+        if (not key.endswith("_at_mm") or at is None or name.startswith("usum")  # the stress and strain maxima
+                or record.get(name + "_region") not in (*TISSUE_REGIONS, WHOLE_TISSUE)):
+            continue
+        distance = np.linalg.norm(corners.C[cut] - np.asarray(at, dtype=float)[:2], axis=1)
+        k = int(np.argmin(distance))
+        if distance[k] <= radius_mm + depth[cut[k]]:
+            out.append({"measure": name, "cone": f"cone_{int(corners.cone[cut[k]]) + 1}",
+                        "corner_at_mm": [float(v) for v in corners.C[cut[k]]], "distance_mm": float(distance[k]),
+                        "corner_penetration_mm": float(depth[cut[k]])})
+    if out and contact.comm.rank == 0:
+        log.warning("the tissue's maxima %s lie near a cone's corner that cuts the tissue (up to %.3g mm inside its "
+                    "facets): not resolved there (docs/contact.md, \"The cones' corners against the tissue's facets\")",
+                    ", ".join(item["measure"] for item in out), max(item["corner_penetration_mm"] for item in out))
+    return out
 
 
 def intervals(z: np.ndarray, open_: np.ndarray) -> list[list[float]]:

@@ -18,6 +18,7 @@ import numpy as np
 
 from suture_fem.geometry.regions import TISSUE_REGIONS, WHOLE_TISSUE
 from suture_fem.outputs.base import REPORT_REGIONS, Maximum, Quantity, Setup, State
+from suture_fem.outputs.cone_gaps import maxima_near_cut_corners
 from suture_fem.outputs.critical_distance import CriticalDistance
 from suture_fem.outputs.dimple import Dimple
 from suture_fem.outputs.energy import StrainEnergy
@@ -32,6 +33,7 @@ from suture_fem.outputs.thread_end import ThreadEnd
 from suture_fem.outputs.usum import Usum
 from suture_fem.physics.problem import Physics
 from suture_fem.scene.schema import OutputSection
+from suture_fem.support import compat
 
 #: Every quantity, in the order of the record; a scene's ``output.quantities`` selects the optional ones.
 QUANTITIES: tuple[type[Quantity], ...] = (ThreadEnd, StrainEnergy, Reaction, Usum, Seqv, Eptoeqv, FilletPeak,
@@ -93,6 +95,10 @@ class Outputs:
                 out[name], out[name + "_at_mm"], out[name + "_region"] = entry.value, entry.at_mm, WHOLE_TISSUE
         out["regions"] = regions
         out["where"] = dict(self.where)
+        contact = getattr(self.physics, "cone_contact", None)
+        if contact is not None and contact.corners is not None and "cone_contact" in out.get("interface", {}):
+            out["interface"]["cone_contact"]["maxima_near_cut_corners"] = maxima_near_cut_corners(
+                out, contact, compat.function_vector(self.physics.state), self.setup.output.critical_distance_mm)
         return out
 
     def _regions(self, state: State) -> tuple[dict[str, Any], dict[str, Best]]:

@@ -64,6 +64,23 @@ def test_a_cone_moved_ahead_puts_its_apex_corner_inside_the_tissue_by_the_move()
     assert abs(total) <= 1e-12 * cone_back.sum()  # action and reaction: no net axial force
 
 
+def test_a_tissue_maximum_near_a_cutting_corner_is_named():
+    from suture_fem.outputs.cone_gaps import maxima_near_cut_corners
+
+    physics, contact, vec, rest = _moved(held=False, move_m=1e-4)
+    apex = int(np.argmax(contact.corners.C[:, 1]))
+    r, z = contact.corners.C[apex]
+    record = {"seqv_cd_pa_at_mm": [r - 0.15, z], "seqv_cd_pa_region": "tissue",  # 0.15 mm off: within 0.1 + 0.096
+              "eptoeqv_cd_at_mm": [r, z + 0.3], "eptoeqv_cd_region": "tissue",  # too far
+              "seqv_pa_at_mm": [r - 0.1, z], "seqv_pa_region": "suture",  # not the tissue's
+              "usum_mm_at_mm": [r, z], "usum_mm_region": "hypodermis"}  # a displacement, not a stress
+    near = maxima_near_cut_corners(record, contact, vec, radius_mm=0.1)
+    assert [item["measure"] for item in near] == ["seqv_cd_pa"] and near[0]["cone"] == "cone_1"
+    assert near[0]["distance_mm"] == pytest.approx(0.15) and near[0]["corner_penetration_mm"] == pytest.approx(
+        0.1 - rest[apex] / 1e-3, rel=1e-9)
+    assert maxima_near_cut_corners(record, contact, vec.duplicate(), radius_mm=0.1) == []  # at rest nothing cuts
+
+
 def test_held_corners_terms_are_the_derivatives_of_their_potential():
     """Central differences of the potential and the gradient with the apex corner 16 um inside the tissue."""
     physics, contact, vec, _ = _moved(held=True, move_m=2e-5)

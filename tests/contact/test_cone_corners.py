@@ -1,7 +1,8 @@
 """The cones' corners against the tissue's facets (``effects.cone_corners``; physics/effects/cone_corners.py).
 
 Checked here: at rest every corner lies inside its cone, off the tissue; a cone moved ahead of the tissue puts its
-apex corner inside the tissue by the move less that offset (a closed form), measured and reported; held, the
+apex corner inside the tissue by the move less that offset (a closed form), measured and reported, and a tissue
+maximum within the critical distance of it is named (not one too far, in the suture, or USUM); held, the
 corners' terms are the derivatives of their potential (gradient and the exact Hessian against central
 differences, the nearest facet moving as the state moves) and push the facet into the tissue and the cone back;
 a scene holding the corners of cones that are not unilateral is refused before meshing.

@@ -83,26 +83,25 @@ def maxima_near_cut_corners(record: dict[str, Any], contact: Any, state: Any, ra
     """The tissue's maxima in ``record`` lying near a cone's corner that cuts the tissue (collective).
 
     A corner cuts when it lies more than NEXT_LAYER_WARNING_MM inside the tissue's facets
-    (:mod:`~suture_fem.physics.effects.cone_corners`); a stress or strain maximum (``<name>_at_mm``, reference place,
-    in a tissue region; not USUM) is near it within ``radius_mm`` (the critical distance) plus the corner's depth.
-    Per such maximum: the nearest cutting corner's cone, reference place, distance and depth (mm). ``state``: the
-    state's PETSc vector.
+    (:mod:`~suture_fem.physics.effects.cone_corners`). A stress or strain maximum (``<name>_at_mm``, a reference
+    place, in a tissue region; not USUM) is near it within ``radius_mm`` (the critical distance) plus the corner's
+    depth of the tissue the corner cuts, taken where that tissue was at rest (the nearest point of its facet, which
+    may have slid far round the corner). Per such maximum: the cone, that tissue's reference place, the distance and
+    the corner's depth (mm). ``state``: the state's PETSc vector.
     """
-    corners = contact.corners
-    depth = -corners.search(state, contact.search(state)["t_c"])["d"] / regions.MM
-    cut = np.flatnonzero(depth > NEXT_LAYER_WARNING_MM)
+    cut = contact.corners.cut(state, contact.search(state)["t_c"], NEXT_LAYER_WARNING_MM)
     out: list[dict[str, Any]] = []
-    for key, at in record.items() if len(cut) else []:
+    for key, at in record.items() if cut else []:
         name = key[: -len("_at_mm")]
         if (not key.endswith("_at_mm") or at is None or name.startswith("usum")  # the stress and strain maxima
                 or record.get(name + "_region") not in (*TISSUE_REGIONS, WHOLE_TISSUE)):
             continue
-        distance = np.linalg.norm(corners.C[cut] - np.asarray(at, dtype=float)[:2], axis=1)
+        distance = [float(np.linalg.norm(tissue - np.asarray(at, dtype=float)[:2])) for _, _, tissue in cut]
         k = int(np.argmin(distance))
-        if distance[k] <= radius_mm + depth[cut[k]]:
-            out.append({"measure": name, "cone": f"cone_{int(corners.cone[cut[k]]) + 1}",
-                        "corner_at_mm": [float(v) for v in corners.C[cut[k]]], "distance_mm": float(distance[k]),
-                        "corner_penetration_mm": float(depth[cut[k]])})
+        cone, depth, tissue = cut[k]
+        if distance[k] <= radius_mm + depth:
+            out.append({"measure": name, "cone": f"cone_{cone + 1}", "tissue_at_mm": [float(v) for v in tissue],
+                        "distance_mm": distance[k], "corner_penetration_mm": depth})
     if out and contact.comm.rank == 0:
         log.warning("the tissue's maxima %s lie near a cone's corner that cuts the tissue (up to %.3g mm inside its "
                     "facets): not resolved there (docs/contact.md, \"The cones' corners against the tissue's facets\")",

@@ -69,16 +69,17 @@ def test_a_tissue_maximum_near_a_cutting_corner_is_named():
     from suture_fem.outputs.cone_gaps import maxima_near_cut_corners
 
     physics, contact, vec, rest = _moved(held=False, move_m=1e-4)
-    apex = int(np.argmax(contact.corners.C[:, 1]))
-    r, z = contact.corners.C[apex]
+    apex, cap = int(np.argmax(contact.corners.C[:, 1])), physics.tagged.geometry.cones[0].apex_z
+    r, z = contact.corners.C[apex]  # the tissue it cuts: on the cap's facet at r, where it was at rest
     record = {"seqv_cd_pa_at_mm": [r - 0.15, z], "seqv_cd_pa_region": "tissue",  # 0.15 mm off: within 0.1 + 0.096
               "eptoeqv_cd_at_mm": [r, z + 0.3], "eptoeqv_cd_region": "tissue",  # too far
               "seqv_pa_at_mm": [r - 0.1, z], "seqv_pa_region": "suture",  # not the tissue's
               "usum_mm_at_mm": [r, z], "usum_mm_region": "hypodermis"}  # a displacement, not a stress
     near = maxima_near_cut_corners(record, contact, vec, radius_mm=0.1)
     assert [item["measure"] for item in near] == ["seqv_cd_pa"] and near[0]["cone"] == "cone_1"
-    assert near[0]["distance_mm"] == pytest.approx(0.15) and near[0]["corner_penetration_mm"] == pytest.approx(
-        0.1 - rest[apex] / 1e-3, rel=1e-9)
+    assert near[0]["tissue_at_mm"] == pytest.approx([r, cap], abs=1e-12)
+    assert near[0]["distance_mm"] == pytest.approx(np.hypot(0.15, cap - z), rel=1e-12)
+    assert near[0]["corner_penetration_mm"] == pytest.approx(0.1 - rest[apex] / 1e-3, rel=1e-9)
     assert maxima_near_cut_corners(record, contact, vec.duplicate(), radius_mm=0.1) == []  # at rest nothing cuts
 
 

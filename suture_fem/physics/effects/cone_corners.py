@@ -16,10 +16,10 @@ kappa the cones' penalty, the potential is the cones' own augmented Lagrangian i
 so a corner presses the facet's nodes into the tissue (by the piece's linear weights) and the cone back along
 the normal. At rest the search's rounded corners lie inside the cone (0.41 of their radius at a right angle)
 and press nothing; a real fillet's midpoint may lie past its facets' chord, and is measured from there. The
-Jacobian is exact: kappa w g g^T where pressed, g = dd/d(dofs) (-(1 - xi) n and -xi n on the piece's ends,
-n_z / n_b on each of the cone's n_b axial dofs), less w p d2d (the piece's normal turning; off a node, the
-distance's bending, kept only inside the tissue). The multipliers move with the cones'
-(:meth:`~.cone_contact.ConeContact.update`, plain Uzawa) to the same target.
+Jacobian is kappa w g g^T where pressed, g = dd/d(dofs) (-(1 - xi) n and -xi n on the piece's ends, n_z / n_b on
+each of the cone's n_b axial dofs), less w p d2d: exact beside a piece (its normal's turning); off a node the
+distance's bending is kept only inside the tissue, not within BENDING_FLOOR of the node. The multipliers move with
+the cones' (:meth:`~.cone_contact.ConeContact.update`, plain Uzawa) to the same target.
 
 ``effects.cone_corners = "measured"`` (the default) only reports the corners (:meth:`CornerPass.status`); "held"
 adds their terms. Every rank searches every corner against the whole chain (a few hundred pieces, gathered once);
@@ -65,8 +65,10 @@ def chain(physics: Any, outlines: list) -> dict[str, np.ndarray]:
         edge, off = xy[b] - xy[a], xy[cells[cell][i]] - xy[a]
         if edge[0] * off[1] - edge[1] * off[0] < 0.0:
             a, b = b, a  # the tissue (the opposite vertex) on the left of a -> b
-        middle = [m for m in cells[cell][3:] if np.allclose(xy[m], 0.5 * (xy[a] + xy[b]), atol=1e-9)]
-        ends += [(a, middle[0]), (middle[0], b)] if middle else [(a, b)]
+        if len(cells[cell]) > 3:  # P2: the edge's middle node (edge i opposite vertex i), on an arc if cells are curved
+            ends += [(a, cells[cell][3 + i]), (cells[cell][3 + i], b)]
+        else:
+            ends.append((a, b))
     local = np.array(ends, dtype=np.int64).reshape(-1, 2)
     dofs = np.stack([global_dofs(physics, local.ravel(), c) for c in range(2)], axis=1).reshape(-1, 2, 2)
     dofs = np.concatenate(physics.comm.allgather(dofs))
@@ -78,6 +80,11 @@ def chain(physics: Any, outlines: list) -> dict[str, np.ndarray]:
     mid = 0.5 * (X[pieces[:, 0]] + X[pieces[:, 1]])
     distance = np.stack([np.abs(project(mid, o).distance) for o in outlines], axis=1) if len(mid) else np.zeros((0, 1))
     return {"nodes": nodes, "X": X, "pieces": pieces, "cone": np.argmin(distance, axis=1).astype(np.int64)}
+
+
+#: The distance's bending off a node, (I - n n^T) / d, is left out of the Jacobian within this fraction of the
+#: piece's length of the node: it grows without bound as a held corner comes to rest on the node.
+BENDING_FLOOR = 0.05
 
 
 class CornerPass:
@@ -112,7 +119,7 @@ class CornerPass:
         shift[:, 1] = t_c[self.piece_cone] / regions.MM if len(t_c) else 0.0
         pa, pb = x[a] - shift, x[b] - shift  # relative to each piece's cone: moved back by its axial shift
         edge = pb - pa
-        length = np.maximum(np.linalg.norm(edge, axis=1), 1e-300)
+        length = np.maximum(np.linalg.norm(edge, axis=1), 1e-150)  # its square stays above 0
         normal = np.stack([edge[:, 1], -edge[:, 0]], axis=1) / length[:, None]  # the tissue on the left: outward
         at_node = np.zeros_like(x)
         np.add.at(at_node, a, normal)
@@ -128,10 +135,13 @@ class CornerPass:
         side = np.where((xi_k <= 0.0)[:, None], at_node[a[best]], np.where((xi_k >= 1.0)[:, None], at_node[b[best]],
                                                                              normal[best]))
         sign = np.where(np.einsum("ki,ki->k", gap_k, side) < 0.0, -1.0, 1.0)  # inside the tissue: -
+        sign[~np.isfinite(dist_k)] = 1.0  # a cone with no facets: never inside
         far = dist_k > 1e-12
         n = np.where(far[:, None], sign[:, None] * gap_k / np.where(far, dist_k, 1.0)[:, None], side)  # dd/dc
         interior = (xi_k > 0.0) & (xi_k < 1.0)
+        tissue = self.X[a[best]] + xi_k[:, None] * (self.X[b[best]] - self.X[a[best]])  # its reference place (mm)
         return {"piece": best, "xi": xi_k, "d": sign * dist_k * regions.MM - self.d0, "n": n, "interior": interior,
+                "tissue": tissue,
                 "t": edge[best] / length[best][:, None], "length": length[best] * regions.MM,
                 "dist": sign * dist_k * regions.MM}
 
@@ -187,8 +197,8 @@ class CornerPass:
     def _curvature(found: dict[str, np.ndarray], k: int) -> np.ndarray:
         """d2d / d(a, b, c)^2 (6 x 6, 1/m) of corner k: beside its piece, the piece's normal turning.
 
-        Off the piece's end node, the distance's bending, kept only inside the tissue, where it stiffens (outside
-        it grows as 1 / d near the node).
+        Off the piece's end node, the distance's bending, kept only inside the tissue (where it stiffens: outside it
+        softens) and deeper than BENDING_FLOOR of the piece (it grows as 1 / d at the node).
         """
         n, t, xi = found["n"][k], found["t"][k], found["xi"][k]
         out = np.zeros((6, 6))
@@ -201,7 +211,7 @@ class CornerPass:
                 out[2 * i: 2 * i + 2, 2 * j: 2 * j + 2] = block / length
                 if i != j:
                     out[2 * j: 2 * j + 2, 2 * i: 2 * i + 2] = block.T / length
-        elif found["dist"][k] < 0.0:
+        elif found["dist"][k] < -BENDING_FLOOR * found["length"][k]:
             node = 0 if xi <= 0.0 else 2  # the piece's end nearest
             bend = (np.eye(2) - np.outer(n, n)) / found["dist"][k]
             for i, j, sign in ((node, node, 1.0), (4, 4, 1.0), (node, 4, -1.0), (4, node, -1.0)):
@@ -237,6 +247,15 @@ class CornerPass:
         d = self.search(u_vec, t_c)["d"]
         return {"corners_inside_tissue": int(np.count_nonzero(d < 0.0)),
                 "corner_penetration_max_mm": float(np.max(-d, initial=0.0)) / regions.MM}
+
+    def cut(self, u_vec: Any, t_c: np.ndarray, depth_mm: float) -> list[tuple[int, float, np.ndarray]]:
+        """Each corner deeper than ``depth_mm`` inside the tissue: its cone, depth (mm) and the tissue it cuts.
+
+        That tissue's reference place (mm): the nearest point of the corner's facet, where that tissue was at rest.
+        """
+        found = self.search(u_vec, t_c)
+        depth = -found["d"] / regions.MM
+        return [(int(self.cone[k]), float(depth[k]), found["tissue"][k]) for k in np.flatnonzero(depth > depth_mm)]
 
     def depths(self, u_vec: Any, t_c: np.ndarray) -> list[float]:
         """Per cone, how deep its deepest corner lies inside the tissue (mm; 0 with none inside)."""

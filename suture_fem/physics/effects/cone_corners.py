@@ -141,7 +141,7 @@ class CornerPass:
         interior = (xi_k > 0.0) & (xi_k < 1.0)
         tissue = self.X[a[best]] + xi_k[:, None] * (self.X[b[best]] - self.X[a[best]])  # its reference place (mm)
         return {"piece": best, "xi": xi_k, "d": sign * dist_k * regions.MM - self.d0, "n": n, "interior": interior,
-                "tissue": tissue,
+                "rest_place": tissue,
                 "t": edge[best] / length[best][:, None], "length": length[best] * regions.MM,
                 "dist": sign * dist_k * regions.MM}
 
@@ -255,7 +255,7 @@ class CornerPass:
         """
         found = self.search(u_vec, t_c)
         depth = -found["d"] / regions.MM
-        return [(int(self.cone[k]), float(depth[k]), found["tissue"][k]) for k in np.flatnonzero(depth > depth_mm)]
+        return [(int(self.cone[k]), float(depth[k]), found["rest_place"][k]) for k in np.flatnonzero(depth > depth_mm)]
 
     def depths(self, u_vec: Any, t_c: np.ndarray) -> list[float]:
         """Per cone, how deep its deepest corner lies inside the tissue (mm; 0 with none inside)."""

@@ -39,7 +39,7 @@ ORIENTATIONS = ("apex_to_pull", "base_to_pull")
 def case(cones: int, kind: str, orientation: str, interface: str, out: Path, corners: str = "measured") -> dict:
     """One run (benchmarks/speed.py's ``run``: its own process, its CPU); its forces, shares and cost."""
     folder = out / f"{kind}_{cones}_{orientation}_{interface}"
-    held = [f'effects.cone_corners="{corners}"'] if interface != "tied" and corners != "measured" else []
+    held = [f'effects.cone_corners="{corners}"'] if interface != "tied" else []  # "measured": the default
     values = [*MOVE, f"geometry.cones={cones}", f'geometry.cone_kind="{kind}"',
               f'geometry.cone_orientation="{orientation}"', *INTERFACES[interface], *held]
     args = ["run", "paper", "--no-pictures"]

@@ -24,7 +24,7 @@ SEPARATION_MM = 1e-4
 #: A report warns when the tissue's next layer, only measured (the thread tied), lies deeper than this inside a
 #: cone, or a cone's corner, only measured, inside the tissue's facets (mm): a tenth of the tissue's elements at
 #: the cones (about 46 um at P1).
-NEXT_LAYER_WARNING_MM = 5e-3
+DEPTH_WARNING_MM = 5e-3
 
 log = logging.getLogger("suture_fem")
 
@@ -67,11 +67,11 @@ def cone_record(physics: Any, profiles: dict[str, Any], names: list[str]) -> dic
             per_cone[name]["corner_penetration_max_mm"] = depth
     record: dict[str, Any] = {"model": contact.model, **contact.status(state), "cones": per_cone}
     depth = record["next_layer_penetration_max_mm"]
-    if not contact.hold_next_layer and depth > NEXT_LAYER_WARNING_MM and physics.comm.rank == 0:
+    if not contact.hold_next_layer and depth > DEPTH_WARNING_MM and physics.comm.rank == 0:
         log.warning("the tissue's next layer lies %.3g mm inside a cone (measured, not held with the thread tied: "
                     "docs/contact.md, \"The tissue's next layer in the search\")", depth)
     corner = record.get("corner_penetration_max_mm", 0.0)
-    if contact.held is None and corner > NEXT_LAYER_WARNING_MM and physics.comm.rank == 0:
+    if contact.held is None and corner > DEPTH_WARNING_MM and physics.comm.rank == 0:
         log.warning("a cone's corner lies %.3g mm inside the tissue's facets (measured, not held: effects.cone_corners "
                     "= \"held\" holds it, docs/contact.md \"The cones' corners against the tissue's facets\")", corner)
     if contact.mu > 0.0:
@@ -82,14 +82,14 @@ def cone_record(physics: Any, profiles: dict[str, Any], names: list[str]) -> dic
 def maxima_near_cut_corners(record: dict[str, Any], contact: Any, state: Any, radius_mm: float) -> list[dict[str, Any]]:
     """The tissue's maxima in ``record`` lying near a cone's corner that cuts the tissue (collective).
 
-    A corner cuts when it lies more than NEXT_LAYER_WARNING_MM inside the tissue's facets
+    A corner cuts when it lies more than DEPTH_WARNING_MM inside the tissue's facets
     (:mod:`~suture_fem.physics.effects.cone_corners`). A stress or strain maximum (``<name>_at_mm``, a reference
     place, in a tissue region; not USUM) is near it within ``radius_mm`` (the critical distance) plus the corner's
     depth of the tissue the corner cuts, taken where that tissue was at rest (the nearest point of its facet, which
     may have slid far round the corner). Per such maximum: the cone, that tissue's reference place, the distance and
     the corner's depth (mm). ``state``: the state's PETSc vector.
     """
-    cut = contact.corners.cut(state, contact.search(state)["t_c"], NEXT_LAYER_WARNING_MM)
+    cut = contact.corners.cut(state, contact.search(state)["t_c"], DEPTH_WARNING_MM)
     out: list[dict[str, Any]] = []
     for key, at in record.items() if cut else []:
         name = key[: -len("_at_mm")]

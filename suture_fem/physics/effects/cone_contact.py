@@ -121,7 +121,7 @@ class ConeContact(SlipBound):
         self.hold_next_layer = bool(pairs.get("hold_next_layer", True))  # else measured only (:meth:`status`)
         self.watched = WatchedLayer(state, pairs.get("watched"), self.outlines, self.dofs.shape[1])
         self.corners: CornerPass | None = None  # the cones' corners against the tissue's facets (:meth:`on`)
-        self.held: CornerPass | None = None  # the same, when held out of the tissue (else only measured)
+        self.hold_corners = False  # effects.cone_corners = "held": their terms join these (else only measured)
         for sel, outline in zip(self._of_cone, self.outlines):
             start = project(self.X[sel], outline)
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
@@ -159,9 +159,14 @@ class ConeContact(SlipBound):
             pieces = chain(physics, contact.outlines)
             contact.corners = CornerPass(physics.comm, contact._state, pieces, contact.outlines, contact.cone_dofs,
                                          kappa, physics.tagged.sizes.suture * regions.MM)
-            contact.held = contact.corners if section.cone_corners == "held" else None
+            contact.hold_corners = section.cone_corners == "held"
         physics.notes.setdefault("interfaces", {}).update(cone_notes.notes(contact))
         return contact
+
+    @property
+    def held(self) -> CornerPass | None:
+        """The corners when held out of the tissue (``effects.cone_corners = "held"``), else None (measured only)."""
+        return self.corners if self.hold_corners else None
 
     def search(self, u_vec: Any) -> dict[str, np.ndarray]:
         """Each pair's place on its cone now: ``phi``, ``g`` (m), ``n``, ``T`` ((pairs, 2)) (collective).

@@ -36,8 +36,9 @@ from petsc4py import PETSc
 
 from suture_fem.geometry import regions
 from suture_fem.geometry.mesh import facets as tagged_facets
-from suture_fem.geometry.outline import convex_corners, project
+from suture_fem.geometry.outline import convex_corners
 from suture_fem.geometry.regions import Facet
+from suture_fem.physics.effects.cone_pairs import nearest_cone
 from suture_fem.physics.effects.friction import global_dofs
 from suture_fem.support import compat
 
@@ -77,9 +78,8 @@ def chain(physics: Any, outlines: list) -> dict[str, np.ndarray]:
     X = np.zeros((len(nodes), 2))
     X[index.ravel()] = places.reshape(-1, 2)
     pieces = index.reshape(-1, 2)
-    mid = 0.5 * (X[pieces[:, 0]] + X[pieces[:, 1]])
-    distance = np.stack([np.abs(project(mid, o).distance) for o in outlines], axis=1) if len(mid) else np.zeros((0, 1))
-    return {"nodes": nodes, "X": X, "pieces": pieces, "cone": np.argmin(distance, axis=1).astype(np.int64)}
+    cone = nearest_cone(0.5 * (X[pieces[:, 0]] + X[pieces[:, 1]]), outlines)
+    return {"nodes": nodes, "X": X, "pieces": pieces, "cone": cone}
 
 
 #: The distance's bending off a node, (I - n n^T) / d, is left out of the Jacobian within this fraction of the
@@ -244,9 +244,8 @@ class CornerPass:
 
     def status(self, u_vec: Any, t_c: np.ndarray) -> dict[str, Any]:
         """How many corners lie inside the tissue (past its facets), and how deep the deepest lies (mm)."""
-        d = self.search(u_vec, t_c)["d"]
-        return {"corners_inside_tissue": int(np.count_nonzero(d < 0.0)),
-                "corner_penetration_max_mm": float(np.max(-d, initial=0.0)) / regions.MM}
+        inside = int(np.count_nonzero(self.search(u_vec, t_c)["d"] < 0.0))
+        return {"corners_inside_tissue": inside, "corner_penetration_max_mm": max(self.depths(u_vec, t_c), default=0.0)}
 
     def cut(self, u_vec: Any, t_c: np.ndarray, depth_mm: float) -> list[tuple[int, float, np.ndarray]]:
         """Each corner deeper than ``depth_mm`` inside the tissue: its cone, depth (mm) and the tissue it cuts.

@@ -175,11 +175,11 @@ def _next_layer(physics: Any, on_cones: np.ndarray, suture: np.ndarray, track: n
     layer[track] = False
     near = np.flatnonzero(layer[: V.dofmap.index_map.size_local])
     return {"nodes": near, "dofs": np.stack([global_dofs(physics, near, c) for c in range(dim)], axis=1),
-            "X": xyz[near], "cone": _nearest(meridian(xyz[near]), outlines)}
+            "X": xyz[near], "cone": nearest_cone(meridian(xyz[near]), outlines)}
 
 
-def _nearest(xy_mm: np.ndarray, outlines: list) -> np.ndarray:
-    """The cone whose outline is nearest to each point."""
+def nearest_cone(xy_mm: np.ndarray, outlines: list) -> np.ndarray:
+    """The cone whose outline is nearest to each point ((n, 2) mm, the meridian plane)."""
     if len(xy_mm) == 0:
         return np.zeros(0, dtype=np.int64)
     distance = np.stack([np.abs(project(xy_mm, outline).distance) for outline in outlines], axis=1)

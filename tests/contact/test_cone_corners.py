@@ -5,7 +5,8 @@ apex corner inside the tissue by the move less that offset (a closed form), meas
 maximum within the critical distance of it is named (not one too far, in the suture, or USUM); held, the
 corners' terms are the derivatives of their potential (gradient and the exact Hessian against central
 differences, the nearest facet moving as the state moves) and push the facet into the tissue and the cone back;
-a scene holding the corners of cones that are not unilateral is refused before meshing.
+a scene holding the corners of cones that are not unilateral is refused before meshing; two ranks hold them as one
+does.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.conftest import run_paper
 from tests.contact.differences import matches, off_the_kink
 
 
@@ -111,3 +113,27 @@ def test_holding_the_corners_of_cones_that_are_not_unilateral_is_refused():
             check_scene(scene)
     check_scene(Scene.builtin("paper").with_values({"effects.cone_interface": "coulomb",
                                                     "effects.cone_corners": "held"}))  # allowed
+
+
+#: A pull the held corners carry on the one-cone scene (P1, refinement 0): its ramps stop near 0.007 N, where the
+#: tissue starts to pass the apex corner node by node (docs/contact.md).
+HELD_PULL_N = 0.005
+
+
+def test_two_ranks_hold_the_corners_as_one_does(tmp_path_factory):
+    """The corners' terms are searched on every rank and added on rank 0: two ranks give the serial answer."""
+    held = ["mesh.degree=1", "mesh.refinement=0", "geometry.cones=1", 'effects.cone_interface="frictionless"',
+            'effects.cone_corners="held"', f"loading.force_n={HELD_PULL_N}",
+            f"loading.report_forces_n=[{HELD_PULL_N / 2},{HELD_PULL_N}]", 'output.quantities=["usum","interface"]']
+    one, two = (run_paper(tmp_path_factory, f"held{n}", held, ranks=n) for n in (1, 2))
+    assert two["mpi_ranks"] == 2 and len(one["at_forces"]) == len(two["at_forces"]) == 2
+    for a, b in zip(one["at_forces"], two["at_forces"]):
+        ca, cb = a["interface"]["cone_contact"], b["interface"]["cone_contact"]
+        # measured (Debian 12): USUM, the shares and the apex corner's depth equal to 1e-13
+        assert b["usum_mm"] == pytest.approx(a["usum_mm"], rel=1e-9)
+        for name in a["load_share_n"]:
+            assert b["load_share_n"][name] == pytest.approx(a["load_share_n"][name], abs=1e-9 * HELD_PULL_N)
+        assert cb["corners_inside_tissue"] == ca["corners_inside_tissue"] == 1  # the apex corner, held within the target
+        target = one["effects"]["interfaces"]["contact_penetration_target_mm"]  # the multipliers' target
+        assert ca["corner_penetration_max_mm"] <= target
+        assert cb["corner_penetration_max_mm"] == pytest.approx(ca["corner_penetration_max_mm"], rel=1e-6)

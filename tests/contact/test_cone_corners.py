@@ -161,7 +161,7 @@ def test_held_corners_terms_are_the_derivatives_of_their_potential_off_a_node():
     found = corners.search(vec, contact.search(vec)["t_c"])
     apex = int(np.argmax(corners.C[:, 1]))
     assert not found["interior"][apex] and found["dist"][apex] < -BENDING_FLOOR * found["length"][apex]
-    # the move's diagonal less the rounded corner's own offset inside the cone (the same off the cap and the flank)
+    # the move's diagonal less the rounded corner's offset inside the cone off the cap (off the flank 1.6 % less)
     assert found["dist"][apex] == pytest.approx(-np.sqrt(2) * (2e-5 - rest[apex]), rel=0.02)
     off_the_kink(contact, rng, contact.search(vec)["phi"])
     contact.held.multiplier[:] = 3e4

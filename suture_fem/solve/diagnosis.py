@@ -98,8 +98,8 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
                 "(docs/contact.md: Nothing tied)")
     if degree == 2:
         return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
-                "cone stops at 0.38 N pulled to 1 N and in its first step pulled to 4 N, as four do (docs/contact.md: "
-                "P2 cones)")
+                "cone stops at 0.99 N pulled to 1 N and in its first step pulled to 4 N, four at 1.14 N "
+                "(docs/contact.md: P2 cones)")
     if effects.cone_interface == "sliding" and not walled:
         return ""  # the tissue's advice, below
     if effects.cone_interface == "sliding":  # its pure penalty's penetration reached the wall guard

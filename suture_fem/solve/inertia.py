@@ -66,6 +66,12 @@ def _factorise(ksp: Any, A: Any) -> int | None:
     return negative
 
 
+def positive_definite(ksp: Any, A: Any) -> bool:
+    """Factorise A now; whether the factorisation succeeded with no negative pivot (it is then the KSP's)."""
+    ksp.setOperators(A, A)
+    return _factorise(ksp, A) == 0
+
+
 def correct(ksp: Any, A: Any) -> tuple[bool, int]:
     """Factorise A (the reduced Jacobian) now; while it has negative pivots, shift its diagonal and factorise again.
 

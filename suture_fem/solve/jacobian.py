@@ -14,16 +14,22 @@ about k / kappa, k the tissue's local stiffness (measured: 1.1e-4 of dUSUM/dtiss
 frictionless cone, 0.5 N). ``settled=True`` assembles the constraint's penalty limit: the pressed nodes'
 penalty multiplied by :data:`SETTLED_STIFFENING`, their pressure unchanged (the multiplier shifted by the
 same amount), which the terms' own assembly takes as it is.
+
+The cones' convexified terms (P2 unilateral cones, ``ConeContact._hessian``) leave out a pressed node's softening
+beside a convex arc of a cone's outline. Where the Jacobian stays positive definite with it, the Newton solver
+takes the exact one (:func:`exact_kept`): without the term, a pressed node on the apex corner's rounding gave
+Newton a linear rate (the residual x 0.8 per iterate) and the ramps stalled there (docs/contact.md, "P2 cones").
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
 import dolfinx.fem.petsc
 import numpy as np
+from mpi4py import MPI
 
 from suture_fem.physics.effects.friction import nodal_terms
 from suture_fem.support import compat
@@ -65,6 +71,28 @@ def assemble(problem: Any, J_form: Any, A: Any, settled: bool = False) -> None:
                 terms.add_jacobian(u_vec, A)
         else:
             terms.add_jacobian(u_vec, A)
+
+
+def exact_kept(problem: Any, assemble: Callable[[], None], positive_definite: Callable[[], bool]) -> bool:
+    """Whether the exact Jacobian was assembled and factorised with no negative pivot (collective).
+
+    Tried only where the cones' convexified terms (P2 unilateral cones) leave out a pressed node's softening
+    beside a convex arc; ``assemble`` assembles the Jacobian, ``positive_definite`` factorises it. False: the
+    caller assembles the convexified one.
+    """
+    contact = getattr(problem, "cone_contact", None)
+    if contact is None or not contact.convexified:
+        return False
+    found = contact.search(compat.function_vector(problem.state))
+    here = bool(np.any((contact.pressure() > 0.0) & (found["curvature"] > 0.0)))
+    if not problem.comm.allreduce(here, op=MPI.LOR):
+        return False
+    contact.convexified = False
+    try:
+        assemble()
+    finally:
+        contact.convexified = True
+    return positive_definite()
 
 
 @contextmanager

@@ -6,37 +6,35 @@ SNES solves for x (:class:`~suture_fem.physics.constraints.Unknowns`), the state
 These guards keep hard cases from producing silent wrong numbers or stalling for nothing (the
 adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping`):
 
-* Admissible domain (:mod:`suture_fem.solve.guard`). Before a residual is assembled the state is
-  checked to be inside every material's domain. A trial state outside it is never evaluated into NaN:
-  where petsc4py offers ``SNESSetFunctionDomainError`` it is called; on petsc4py 3.18 (which has not)
-  the residual is returned as a huge finite vector (:data:`OUTSIDE_DOMAIN_RESIDUAL`), so the backtracking
-  line search rejects the trial and shortens the step, and a Newton solve that cannot recover fails cleanly.
-* Symmetric factorisation. The Jacobian of a hyperelastic energy is symmetric, and so is T^T A T: a
-  static scene with the plain displacement formulation is factorised by MUMPS LDL^T
-  (``pc_type = cholesky``; half the memory of LU, about 15 % less time per factorisation on the
-  paper scene, benchmarks/speed.py). Mixed pressure rows and stiffness-proportional damping are not
-  symmetric; those scenes, and every fallback solver, use LU (:func:`~suture_fem.solve.linear.factor_type`).
+* Admissible domain (:mod:`suture_fem.solve.guard`). Before a residual is assembled the state is checked to be inside
+  every material's domain. A trial state outside it is never evaluated into NaN: where petsc4py offers
+  ``SNESSetFunctionDomainError`` it is called; on petsc4py 3.18 (which has not) the residual is returned as a huge
+  finite vector (:data:`OUTSIDE_DOMAIN_RESIDUAL`), so the backtracking line search rejects the trial and shortens the
+  step, and a Newton solve that cannot recover fails cleanly.
+* Symmetric factorisation. The Jacobian of a hyperelastic energy is symmetric, and so is T^T A T: a static scene with
+  the plain displacement formulation is factorised by MUMPS LDL^T (``pc_type = cholesky``; half the memory of LU, about
+  15 % less time per factorisation on the paper scene, benchmarks/speed.py). Mixed pressure rows and
+  stiffness-proportional damping are not symmetric; those scenes, and every fallback solver, use LU
+  (:func:`~suture_fem.solve.linear.factor_type`).
 * Energy line search: :func:`~suture_fem.solve.potential.potential_form`.
-* Inertia correction (``solver.inertia_correction``, with LDL^T): a Jacobian with negative pivots is
-  shifted until it has none (:mod:`suture_fem.solve.inertia`): the Newton step of a positive definite
-  model, where the indefinite one made the line search creep.
-* Linear solver fallback. When the LU factorisation fails, the next direct solver of :data:`FALLBACK_ORDER`
-  is tried for the same step (:meth:`NewtonSolver.next_linear_solver`), and the switch is logged.
-* Round-off floor. ``solver.atol`` is an absolute residual norm (N), but the residual of a stiff
-  suture tied into soft tissue cannot be driven below the rounding of the state it is evaluated at:
-  rounding every unknown by one unit in the last place changes R by about eps * ||A diag|x| ||_F
-  (A the Jacobian), 7e-10 N for the paper scene at 4 N, above the default atol of 1e-10 N. Newton
-  then stagnates there and a step whose relative test cannot help (the small increments of a time
-  history) fails for nothing. Each solve therefore uses max(atol, that floor) as its absolute
-  tolerance (:meth:`NewtonSolver.round_off_floor`), and the run records the largest floor it used.
-  The absolute tolerance is also never above ``BALANCE_TOL`` of the force applied at the step: a
-  state is converged only when it balances the pull (:mod:`suture_fem.scene.balance`).
-* Line search fallback. The residual norm is a poor merit function where the tissue is nearly
-  incompressible: from rest, the backtracking ("bt") line search creeps with steps of a few percent
-  while full Newton steps ("basic") converge quadratically; where full steps leave the admissible
-  domain it is the other way round. A Newton solve that fails is retried once at the same load with
-  the other line search (:meth:`NewtonSolver.other_line_search`; the stepping keeps that one while it
-  works) before the step is cut.
+* Inertia correction (``solver.inertia_correction``, with LDL^T): a Jacobian with negative pivots is shifted until it
+  has none (:mod:`suture_fem.solve.inertia`): the Newton step of a positive definite model, where the indefinite one
+  made the line search creep; first, the P2 cones' exact terms where convexified (:func:`.jacobian.exact_kept`).
+* Linear solver fallback. When the LU factorisation fails, the next direct solver of :data:`FALLBACK_ORDER` is tried
+  for the same step (:meth:`NewtonSolver.next_linear_solver`), and the switch is logged.
+* Round-off floor. ``solver.atol`` is an absolute residual norm (N), but the residual of a stiff suture tied into soft
+  tissue cannot be driven below the rounding of the state it is evaluated at: rounding every unknown by one unit in the
+  last place changes R by about eps * ||A diag|x| ||_F (A the Jacobian), 7e-10 N for the paper scene at 4 N, above the
+  default atol of 1e-10 N. Newton then stagnates there and a step whose relative test cannot help (the small increments
+  of a time history) fails for nothing. Each solve therefore uses max(atol, that floor) as its absolute tolerance
+  (:meth:`NewtonSolver.round_off_floor`), and the run records the largest floor it used. The absolute tolerance is also
+  never above ``BALANCE_TOL`` of the force applied at the step: a state is converged only when it balances the pull
+  (:mod:`suture_fem.scene.balance`).
+* Line search fallback. The residual norm is a poor merit function where the tissue is nearly incompressible: from rest,
+  the backtracking ("bt") line search creeps with steps of a few percent while full Newton steps ("basic") converge
+  quadratically; where full steps leave the admissible domain it is the other way round. A Newton solve that fails is
+  retried once at the same load with the other line search (:meth:`NewtonSolver.other_line_search`; the stepping keeps
+  that one while it works) before the step is cut.
 """
 
 from __future__ import annotations
@@ -291,11 +289,14 @@ class NewtonSolver(Linearised):
     def _newton_jacobian(self, snes: Any, x: Any, A: Any, P: Any) -> None:
         """SNES's Jacobian: :meth:`_jacobian`, then (MUMPS LDL^T) shifted while it has negative pivots."""
         signals.check(self.physics.comm)
-        self._jacobian(snes, x, A, P)
         self.factorised = True  # A is factorised before the linear solve (by SNES, or shifted below)
         pc = snes.getKSP().getPC()
         if not (self.options.inertia_correction and pc.getType() == "cholesky" and self.linear_solver == "mumps"):
-            return
+            return self._jacobian(snes, x, A, P)
+        if jacobian.exact_kept(self.physics, lambda: self._jacobian(snes, x, A, P),
+                               lambda: inertia.positive_definite(snes.getKSP(), A)):
+            return None  # the cones' exact terms with their softening: positive definite (jacobian.py)
+        self._jacobian(snes, x, A, P)
         shifted, _ = inertia.correct(snes.getKSP(), A)  # its factorisations count in the linear solve's time
         self.inertia_shifts += shifted
         if shifted:  # the factorisation is not the Jacobian's: a tangent or sensitivity solve assembles A again
@@ -396,5 +397,4 @@ class NewtonSolver(Linearised):
 
 
 def _reason_name(reason: int) -> str:
-    names = {v: k for k, v in PETSc.SNES.ConvergedReason.__dict__.items() if isinstance(v, int)}
-    return names.get(reason, str(reason))
+    return {v: k for k, v in PETSc.SNES.ConvergedReason.__dict__.items() if isinstance(v, int)}.get(reason, str(reason))

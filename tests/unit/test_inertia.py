@@ -99,3 +99,57 @@ def test_the_next_correction_starts_near_the_last_shift_and_finds_the_same_small
     assert _diagonal(B) == pytest.approx(np.diag(milder) * 2.0)  # the smallest: a fresh search finds tau = 1 too
     fresh, C = _ksp_and_matrix(milder)
     assert inertia.correct(fresh, C) == (True, 5)  # 1e-4 ... 1 from the start
+
+
+def test_positive_definite_factorises_and_reads_the_inertia():
+    ksp, A = _ksp_and_matrix(np.array([[4.0, 1.0], [1.0, 3.0]]))
+    assert inertia.positive_definite(ksp, A) and inertia.negative_pivots(ksp) == 0
+    ksp, A = _ksp_and_matrix(np.array([[1.0, 3.0], [3.0, 1.0]]))
+    assert not inertia.positive_definite(ksp, A)
+
+
+class _Contact:
+    """The cones' contact as jacobian.exact_kept reads it: pairs' pressure and the outline's curvature there."""
+
+    def __init__(self, pressure, curvature, convexified=True):
+        self.p, self.curvature, self.convexified = np.asarray(pressure), np.asarray(curvature), convexified
+
+    def search(self, _):
+        return {"curvature": self.curvature}
+
+    def pressure(self):
+        return self.p
+
+
+class _Problem:
+    """A problem with the cones' contact; its state is read only to search."""
+
+    def __init__(self, contact):
+        from mpi4py import MPI
+
+        self.cone_contact, self.comm = contact, MPI.COMM_SELF
+        self.state = type("State", (), {"vector": PETSc.Vec().createSeq(1)})()
+
+
+@pytest.mark.parametrize("pressure, curvature, tried", [
+    ([1e4, 0.0], [0.0, 5e4], False),  # the node on the arc is open: nothing left out
+    ([1e4, 2e3], [-5e4, 0.0], False),  # pressed on a concave arc and a segment: the convexified terms are exact
+    ([1e4, 2e3], [0.0, 5e4], True),  # pressed on a convex arc: its softening is what the convexified terms drop
+])
+def test_the_exact_jacobian_is_tried_only_where_a_pressed_node_softens(pressure, curvature, tried):
+    from suture_fem.solve import jacobian
+
+    contact, seen = _Contact(pressure, curvature), []
+    problem = _Problem(contact)
+    kept = jacobian.exact_kept(problem, lambda: seen.append(contact.convexified), lambda: True)
+    assert kept == tried and seen == ([False] if tried else [])  # assembled with the softening, once
+    assert contact.convexified  # and the convexified terms back for the next assembly
+    assert not jacobian.exact_kept(problem, lambda: None, lambda: False)  # indefinite (or not tried): not kept
+
+
+def test_nothing_is_tried_without_convexified_cones():
+    from suture_fem.solve import jacobian
+
+    assert not jacobian.exact_kept(_Problem(None), lambda: pytest.fail("assembled"), lambda: True)
+    contact = _Contact([1e4], [5e4], convexified=False)  # P1: the exact terms already
+    assert not jacobian.exact_kept(_Problem(contact), lambda: pytest.fail("assembled"), lambda: True)

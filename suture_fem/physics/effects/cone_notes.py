@@ -38,7 +38,8 @@ def notes(contact: Any) -> dict[str, Any]:
     if contact.augmented:
         out["contact_penetration_target_mm"] = contact.target / regions.MM
     if contact.convexified:
-        out["cone_contact_jacobian"] = "convexified: the distance's softening curvature left out (P2)"
+        out["cone_contact_jacobian"] = ("convexified: the distance's softening curvature left out (P2) where the "
+                                        "exact Jacobian has negative pivots")
     if contact.model == "coulomb":
         out.update({"cone_friction_coefficient": contact.mu, "friction_slip_mm": contact.slip / regions.MM})
     return out

@@ -151,7 +151,7 @@ def test_held_corners_terms_are_the_derivatives_of_their_potential_off_a_node():
     from suture_fem.physics.effects.cone_corners import BENDING_FLOOR
 
     physics, contact, vec, rest = _moved(held=True, move_m=0.0)
-    corners = contact.corners
+    corners = contact.corners  # one cone, serial: its chain's nodes all local
     vec.setValues(corners.nodes.ravel().astype(PETSc.IntType), np.full(corners.nodes.size, -2e-5))
     vec.assemble()
     rng = np.random.default_rng(3)
@@ -161,6 +161,13 @@ def test_held_corners_terms_are_the_derivatives_of_their_potential_off_a_node():
     found = corners.search(vec, contact.search(vec)["t_c"])
     apex = int(np.argmax(corners.C[:, 1]))
     assert not found["interior"][apex] and found["dist"][apex] < -BENDING_FLOOR * found["length"][apex]
+    # its distance is the one to the chain's node nearest the corner at rest, moved with the state (the cone's shift
+    # taken off): a closed form of the node's place, not the search's pieces
+    node = int(np.argmin(np.linalg.norm(corners.X - corners.C[apex], axis=1)))
+    assert node == corners.pieces[found["piece"][apex]][0 if found["xi"][apex] <= 0.0 else 1]
+    moved = corners.X[node] + vec.getValues(corners.nodes[node].astype(PETSc.IntType)) / 1e-3
+    moved[1] -= contact.search(vec)["t_c"][0] / 1e-3
+    assert found["dist"][apex] == pytest.approx(-np.linalg.norm(corners.C[apex] - moved) * 1e-3, rel=1e-12)
     # the move's diagonal less the rounded corner's offset inside the cone off the cap (off the flank 1.6 % less)
     assert found["dist"][apex] == pytest.approx(-np.sqrt(2) * (2e-5 - rest[apex]), rel=0.02)
     off_the_kink(contact, rng, contact.search(vec)["phi"])

@@ -54,7 +54,7 @@ class Diagnosis:
 
 
 #: SolverRecord's entries written only where the ramp took them.
-_OPTIONAL = ("leaps", "start")
+_OPTIONAL = ("leaps", "start", "trust_region")
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,8 @@ class SolverRecord:
     leaps: int = 0
     #: the path-following start (solve/start.py), only where the ramp took one
     start: dict[str, Any] | None = None
+    #: the trust region's counts (solve/trust.py), only where the ramp solved with it
+    trust_region: dict[str, int] | None = None
 
     @classmethod
     def from_history(cls, history: Any) -> SolverRecord:
@@ -91,11 +93,17 @@ class SolverRecord:
             solves_at_residual_floor=history.floor_above_atol,
             leaps=getattr(history, "leaps", 0),
             start=getattr(history, "start", None),
+            trust_region=_taken(getattr(history, "trust_region", None)),
         )
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON form (top-level keys of results.json; ``leaps`` and ``start`` only where the ramp took them)."""
+        """JSON form (top-level keys of results.json; ``leaps``, ``start``, ``trust_region`` only where taken)."""
         return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in _OPTIONAL or getattr(self, f.name)}
+
+
+def _taken(counts: dict[str, int] | None) -> dict[str, int] | None:
+    """The trust region's counts where it solved at least once, else None (not written)."""
+    return dict(counts) if counts and counts.get("solves") else None
 
 
 @dataclass(eq=False)
@@ -150,7 +158,7 @@ class Results(Mapping):
             rest.pop(name, None)
         names = [f.name for f in fields(SolverRecord) if f.name not in _OPTIONAL]  # those: written only when taken
         solver = (SolverRecord(**{n: rest.pop(n) for n in names}, leaps=rest.pop("leaps", 0),
-                               start=rest.pop("start", None))
+                               start=rest.pop("start", None), trust_region=rest.pop("trust_region", None))
                   if all(n in rest for n in names) else None)
         diagnosis = rest.pop("diagnosis", None)
         return cls(effects=rest.pop("effects"), scene=rest.pop("scene"), status=rest.pop("status"),

@@ -102,6 +102,7 @@ class SolverSection(_Section):
     iterative_from_dofs: int = key(Rule("int", lo=0, hi=10**10))
     petsc_options: Params = key(Rule("table"))
     inertia_correction: bool = key(Rule("bool"))
+    trust_region: str = key(Rule("str", choices=("auto", "on", "off")))
     gent_limit_fraction: float = key(Rule("float", lo=0.0, hi=1.0, lo_open=True))
 
     def method_for(self, dimension: int, unknowns: int) -> str:

@@ -87,12 +87,23 @@ def exact_kept(problem: Any, assemble: Callable[[], None], positive_definite: Ca
     here = bool(np.any((contact.pressure() > 0.0) & (found["curvature"] > 0.0)))
     if not problem.comm.allreduce(here, op=MPI.LOR):
         return False
-    contact.convexified = False
-    try:
+    with exact(problem):
         assemble()
-    finally:
-        contact.convexified = True
     return positive_definite()
+
+
+@contextmanager
+def exact(problem: Any) -> Iterator[None]:
+    """Inside: the cones' terms assemble their exact Jacobian (the convexified one's softening included)."""
+    contact = getattr(problem, "cone_contact", None)
+    kept = None if contact is None else contact.convexified
+    if contact is not None:
+        contact.convexified = False
+    try:
+        yield
+    finally:
+        if contact is not None:
+            contact.convexified = kept
 
 
 @contextmanager

@@ -20,16 +20,14 @@ adaptive load stepping that drives the solver is :mod:`suture_fem.solve.stepping
 * Inertia correction (``solver.inertia_correction``, with LDL^T): a Jacobian with negative pivots is shifted until it
   has none (:mod:`suture_fem.solve.inertia`): the Newton step of a positive definite model, where the indefinite one
   made the line search creep; first, the P2 cones' exact terms where convexified (:func:`.jacobian.exact_kept`).
+  Where a solve still fails, a trust region on the energy from its start (:mod:`~suture_fem.solve.trust`).
 * Linear solver fallback. When the LU factorisation fails, the next direct solver of :data:`FALLBACK_ORDER` is tried
   for the same step (:meth:`NewtonSolver.next_linear_solver`), and the switch is logged.
 * Round-off floor. ``solver.atol`` is an absolute residual norm (N), but the residual of a stiff suture tied into soft
-  tissue cannot be driven below the rounding of the state it is evaluated at: rounding every unknown by one unit in the
-  last place changes R by about eps * ||A diag|x| ||_F (A the Jacobian), 7e-10 N for the paper scene at 4 N, above the
-  default atol of 1e-10 N. Newton then stagnates there and a step whose relative test cannot help (the small increments
-  of a time history) fails for nothing. Each solve therefore uses max(atol, that floor) as its absolute tolerance
-  (:meth:`NewtonSolver.round_off_floor`), and the run records the largest floor it used. The absolute tolerance is also
-  never above ``BALANCE_TOL`` of the force applied at the step: a state is converged only when it balances the pull
-  (:mod:`suture_fem.scene.balance`).
+  tissue cannot fall below the rounding of its state: about eps * ||A diag|x| ||_F (A the Jacobian), 7e-10 N for the
+  paper scene at 4 N, above the default atol of 1e-10 N, where Newton would stagnate. Each solve uses max(atol, that
+  floor) (:meth:`NewtonSolver.round_off_floor`; the run records the largest), and never more than ``BALANCE_TOL`` of
+  the force applied at the step: a state is converged only when it balances the pull (:mod:`suture_fem.scene.balance`).
 * Line search fallback. The residual norm is a poor merit function where the tissue is nearly incompressible: from rest,
   the backtracking ("bt") line search creeps with steps of a few percent while full Newton steps ("basic") converge
   quadratically; where full steps leave the admissible domain it is the other way round. A Newton solve that fails is
@@ -60,6 +58,7 @@ from suture_fem.solve.potential import potential_form
 from suture_fem.solve.records import Timings
 from suture_fem.solve.reduction import Discrete, Reduction
 from suture_fem.solve.stopping import INCREMENT_RTOL, StopTests, force_scale, stall_iterations
+from suture_fem.solve.trust import TrustRegion
 from suture_fem.support import compat, signals
 from suture_fem.support.errors import Interrupted
 from suture_fem.support.options import forget_options, forget_when_collected
@@ -123,6 +122,7 @@ class NewtonSolver(Linearised):
         self.prefix = f"suture_{id(self)}_"
         forget_when_collected(self, self.prefix)  # PETSc 3.18's options database holds 512 entries
         self._configure()
+        self.trust = TrustRegion.of(self)  # the fallback where SNES's line search fails (trust.py)
 
     @classmethod
     def of(cls, physics: Any, solver_options: SolverSection, timings: Timings) -> NewtonSolver:
@@ -313,8 +313,8 @@ class NewtonSolver(Linearised):
         """
         self.outside_domain = self.inertia_shifts = self.largest_solve = 0
         self.factorised = False  # no factorisation of this step's yet (the chord steps need one)
-        ok, its, reason = settle(self.laws, self._solve_once, self.absolute_tolerance, self._chord) if self.laws \
-            else self._solve_once()
+        once = self._solve_once if self.trust is None else self.trust.after(self._solve_once)
+        ok, its, reason = settle(self.laws, once, self.absolute_tolerance, self._chord) if self.laws else once()
         self.effort = self.largest_solve if any(getattr(law, "augmented", False) for law in self.laws) else its
         return ok, its, reason
 

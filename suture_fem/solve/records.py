@@ -54,4 +54,6 @@ class RampResult:
     unknowns: int = 0
     #: the path-following start (solve/start.py): its end displacement, force and Newton iterations; None without
     start: dict[str, float] | None = None
+    #: the trust region's counts (solve/trust.py: solves, converged, iterations, factorisations); None without one
+    trust_region: dict[str, int] | None = None
     timings: Timings = field(default_factory=Timings)

@@ -100,8 +100,8 @@ def ramp(
     result = RampResult(timings=timings or Timings())
     newton = (solver.restart(result.timings) if solver is not None
               else NewtonSolver.of(physics, scene.solver, result.timings))
-    result.linear_solver = newton.linear_solver
-    result.unknowns = newton.reduction.n_global
+    result.linear_solver, result.unknowns = newton.linear_solver, newton.reduction.n_global
+    result.trust_region = newton.trust.begin() if newton.trust is not None else None
     fraction = scene.solver.gent_limit_fraction
     try:
         if physics.gravity_factor is not None:

@@ -165,6 +165,20 @@ def test_a_frictionless_cone_at_p2_converges_with_shares_summing_to_the_pull(tmp
     assert contact["cones"]["cone_1"]["penetration_max_mm"] <= 1.5e-4  # the augmented Lagrangian's target
 
 
+@pytest.mark.long  # one P2 step from rest to 0.4 N, about a minute; benchmarks/long_tests.py
+def test_a_p2_frictionless_cone_s_first_step_is_carried_by_the_trust_region(tmp_path_factory):
+    """The step SNES's line search fails (and every halving of it, docs/contact.md "A trust region") converges."""
+    res = _run(tmp_path_factory, "frictionless_p2_trust", _cones(
+        "frictionless", "mesh.degree=2", "loading.force_n=0.4", "solver.initial_step=1.0", "solver.max_step=1.0"))
+    rec = res["at_forces"][-1]
+    assert res["status"] == "converged" and rec["force_n"] == pytest.approx(0.4)
+    assert res["scene"]["solver"]["trust_region"] == "auto"
+    assert 1 <= res["trust_region"]["converged"] <= res["trust_region"]["solves"]  # solves SNES failed, converged
+    assert sum(rec["load_share_n"].values()) == pytest.approx(rec["force_n"], rel=1e-9)
+    assert rec["free_residual_norm_n"] <= 1e-6 * rec["force_n"]
+    assert rec["interface"]["cone_contact"]["cones"]["cone_1"]["penetration_max_mm"] <= 1.5e-4
+
+
 def test_the_augmented_lagrangian_meets_its_target_whatever_its_penalty(tmp_path_factory, frictionless):
     """The multipliers bring every pressed node within the target of the cone; the answer does not follow kappa."""
     target = 1.5e-4  # mm: effects.contact_penetration_mm's default

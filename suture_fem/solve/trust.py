@@ -1,0 +1,327 @@
+"""A trust region on the energy: the Newton solve's fallback where its line search fails (P2 unilateral cones).
+
+SNES's Newton step (:mod:`suture_fem.solve.newton`) goes along one direction per iteration: the step of the
+inertia-corrected Jacobian, shortened by the backtracking line search until the energy falls. Where the P2
+cones' tissue is pressed round a corner, that direction is dominated by a few soft modes; its trial states
+invert a tissue element, the line search shortens the same direction, and the solve fails however short the
+load step (docs/contact.md, "P2 cones"). A trust region turns the direction as it shortens the step, toward
+the energy's steepest descent.
+
+The Levenberg-Marquardt form (Moré 1978; Nocedal & Wright, Numerical Optimization, 2nd ed., section 4.3):
+the step p(lam) = -(A + lam D)^-1 g, A the exact Jacobian (the cones' softening beside a convex arc
+included: :func:`~suture_fem.solve.jacobian.exact`), D = |diag A|, g the residual, lam at least lam0, the
+smallest of 0, 1e-8, 1e-7, ... whose factorisation (MUMPS LDL^T) has no negative pivot, and large enough
+that |p| <= delta (lam found by interpolating log |p| against log lam: |p(lam)| falls as lam grows). A step
+is kept when the energy falls by at least RHO_KEEP of what the quadratic model g.p + p.A p / 2 predicts (a
+trial state outside the admissible domain counts as a rise); delta then grows to GROW x |p| after a
+well-predicted step that the radius held, and shrinks to SHRINK x |p| after a rejected one. Below the
+energy's rounding (|g| < FULL_STEP_RESIDUAL x force, or a predicted fall below 1e-11 of the energy) a step
+is kept where it lowers |g|. The solve ends at the Newton solve's own residual test.
+
+Used only where SNES's solve failed, from that solve's start (``solver.trust_region``): "auto" where the
+cones' Jacobian is convexified (P2 unilateral cones, whose ramps stopped near 1 N), "on" for every solve
+with the energy objective and LDL^T, "off" never. A scene it does not touch is solved bit for bit as
+without it.
+
+Hand-written: PETSc 3.18's SNESNEWTONTR is the MINPACK trust region on the residual's norm, not on an
+objective, and bounds its step by ending a Krylov solve early (a direct factorisation is not bounded);
+TAO's trust-region Newton (NTR) needs a Krylov trust-region solver (STCG, NASH, GLTR) with a positive
+definite preconditioner, which the shifted factorisation here is not wired into.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from suture_fem.solve import jacobian
+from suture_fem.solve.stopping import FULL_STEP_RESIDUAL, force_scale
+from suture_fem.support import compat
+
+log = logging.getLogger("suture_fem")
+
+#: A step is kept when the energy falls by at least this fraction of the model's prediction.
+RHO_KEEP = 1e-4
+#: A kept step whose fall was at least RHO_GOOD of the prediction, and that the radius held, grows it to GROW |p|.
+RHO_GOOD, GROW = 0.75, 4.0
+#: A rejected step shrinks the radius to SHRINK |p|; below MIN_RADIUS (in the unknowns' 2-norm, m) the solve fails.
+SHRINK, MIN_RADIUS = 0.25, 1e-14
+#: The first radius of a run (m); later solves start from the last one's.
+FIRST_RADIUS = 1e-3
+#: Shifts of lam0's ladder (times |diag A|) after 0; beyond the last the Jacobian counts as failed.
+FIRST_SHIFT, LAST_SHIFT = 1e-8, 1e6
+#: Tries at the shift that puts |p| between half the radius and the radius.
+SHIFT_TRIES = 6
+#: Iterations of one solve, in units of ``solver.max_iterations``.
+ITERATIONS_PER_MAX = 8
+
+
+class TrustRegion:
+    """The trust-region solve of a :class:`~suture_fem.solve.newton.NewtonSolver` (its state, forms and KSP).
+
+    ``record``: the current ramp's counts (:meth:`begin`): solves, converged, iterations, factorisations.
+    """
+
+    def __init__(self, newton: Any):
+        """The fallback of ``newton``; :meth:`of` says whether a scene wants one."""
+        self.newton = newton
+        self.delta = FIRST_RADIUS
+        self.record: dict[str, int] = self.begin()
+
+    @classmethod
+    def of(cls, newton: Any) -> TrustRegion | None:
+        """The fallback ``solver.trust_region`` asks for, or None (off, or no energy objective or LDL^T)."""
+        mode = newton.options.trust_region
+        contact = getattr(newton.physics, "cone_contact", None)
+        wanted = mode == "on" or (mode == "auto" and contact is not None and contact.convexified)
+        usable = newton.objective_form is not None and newton.options.inertia_correction
+        return cls(newton) if wanted and usable else None
+
+    def begin(self) -> dict[str, int]:
+        """A new ramp's counts (the ramp's record holds the same dict), the first radius again."""
+        self.delta = FIRST_RADIUS
+        self.record = {"solves": 0, "converged": 0, "iterations": 0, "factorisations": 0}
+        return self.record
+
+    def after(self, solve_once: Callable[..., tuple[bool, int, str]]) -> Callable[..., tuple[bool, int, str]]:
+        """``solve_once``, and where it fails (LDL^T by MUMPS) the trust region from the same start."""
+        def solve(loose: float = 0.0) -> tuple[bool, int, str]:
+            state = self.newton.physics.state
+            start = state.x.array.copy()
+            ok, its, reason = solve_once(loose)
+            pc = self.newton.snes.getKSP().getPC()
+            if ok or pc.getType() != "cholesky" or self.newton.linear_solver != "mumps":
+                return ok, its, reason
+            state.x.array[:] = start
+            state.x.scatter_forward()
+            ok, more, why = self.solve(loose)
+            log.info("trust region after %s (%d iterations): %s in %d iterations", reason, its, why, more)
+            return ok, its + more, why if ok else reason
+        return solve
+
+    def solve(self, loose: float = 0.0) -> tuple[bool, int, str]:
+        """One solve from the current state; returns (converged, iterations, reason) as a Newton solve does."""
+        newton = self.newton
+        self.record["solves"] += 1
+        t0, a0 = time.perf_counter(), newton.timings.assembly + newton.timings.guard
+        newton.stops.loose = loose
+        newton.reduction.restrict(compat.function_vector(newton.physics.state), newton.x)
+        newton.last_violation = None
+        work = _Work(newton.x)
+        try:
+            with newton.memo.open():
+                ok, its, reason = self._iterate(work, loose)
+        finally:
+            work.destroy()
+            newton.snes.getKSP().setOperators(newton.A, newton.A)
+            newton.jacobian_current = newton.factorised = False  # the KSP's factorisation was a shifted copy's
+            spent = time.perf_counter() - t0
+            newton.timings.newton_total += spent
+            newton.timings.linear_solve += spent - (newton.timings.assembly + newton.timings.guard - a0)
+        newton.largest_solve = max(newton.largest_solve, its)
+        newton.reduction.expand(newton.x)
+        finite = bool(np.all(np.isfinite(newton.physics.state.x.array)))
+        ok = ok and bool(newton.physics.comm.allreduce(finite, op=MPI.LAND))
+        self.record["iterations"] += its
+        self.record["converged"] += int(ok)
+        return ok, its, reason
+
+    def _iterate(self, w: _Work, loose: float) -> tuple[bool, int, str]:
+        """The iterations from ``newton.x`` (collective); x is left at the last kept iterate."""
+        newton = self.newton
+        x, g = newton.x, newton.b
+        f = newton._objective(None, x)
+        if not newton.memo.admissible:  # a start outside the domain (a predictor's): nothing to descend from
+            return False, 0, "DIVERGED_FUNCTION_DOMAIN"
+        newton._residual(None, x, g)
+        self._jacobian()
+        newton.floor = newton.round_off_floor(x)
+        atol, force = max(newton.absolute_tolerance(), loose), force_scale(newton.physics)
+        its, fresh = 0, True
+        while its < ITERATIONS_PER_MAX * newton.options.max_iterations:
+            gnorm = g.norm()
+            if gnorm <= atol:
+                return True, its, "CONVERGED_FNORM_ABS"
+            if fresh:  # a new Jacobian: its shift without negative pivots and the step there
+                w.matrix(newton.A)
+                try:
+                    w.lam0 = self._lowest_shift(w)
+                except _NoShift:
+                    return False, its, "DIVERGED_LINEAR_SOLVE"
+                w.norm0 = _solve(newton.snes.getKSP(), g, w.p0)
+                fresh = False
+            norm = self._step(w, g)
+            newton.A.mult(w.p, w.Ap)
+            predicted = -(g.dot(w.p) + 0.5 * w.p.dot(w.Ap))
+            w.trial.waxpy(1.0, w.p, x)
+            ft = newton._objective(None, w.trial)
+            its += 1
+            keep = _kept(newton, w, f, ft, predicted, gnorm < FULL_STEP_RESIDUAL * force, gnorm)
+            log.debug("trust region %d: |g| %.3e, lam %.1e, |p| %.3e (radius %.2e), energy %+.3e of %+.3e predicted%s",
+                      its, gnorm, w.lam if norm < w.norm0 else w.lam0, norm, self.delta, f - ft, predicted,
+                      "" if keep else ", refused")
+            if keep:
+                ratio = (f - ft) / predicted if predicted > 0 else 1.0
+                w.trial.copy(x)
+                f = ft
+                newton._residual(None, x, g)
+                self._jacobian()
+                fresh = True
+                if ratio > RHO_GOOD and norm > 0.45 * self.delta:
+                    self.delta = max(self.delta, GROW * norm)
+            else:
+                self.delta = SHRINK * norm
+                newton.reduction.expand(x)
+                if self.delta < MIN_RADIUS:
+                    return False, its, "DIVERGED_TR_DELTA"
+        return False, its, "DIVERGED_MAX_IT"
+
+    def _jacobian(self) -> None:
+        """The exact Jacobian at the current state into ``newton.A`` (its trial states start here)."""
+        newton = self.newton
+        t0 = time.perf_counter()
+        newton.guard.anchor()
+        with jacobian.exact(newton.physics):
+            newton._assemble_full_jacobian()
+        newton.A_full.ptap(newton.reduction.T, newton.A)
+        newton.timings.assembly += time.perf_counter() - t0
+
+    def _factorise(self, w: _Work, lam: float) -> bool:
+        """Factorise A + lam D into the KSP; whether it has no negative pivot (a failed one counts as having)."""
+        self.record["factorisations"] += 1
+        shifted = w.diag.copy()
+        shifted.axpy(lam, w.scale)
+        w.M.setDiagonal(shifted)
+        shifted.destroy()
+        ksp = self.newton.snes.getKSP()
+        ksp.setOperators(w.M, w.M)
+        pc = ksp.getPC()
+        pc.setUp()
+        try:
+            factor = pc.getFactorMatrix()
+            if factor.getMumpsInfog(1) >= 0:
+                return int(factor.getMumpsInfog(12)) == 0
+        except PETSc.Error:
+            pass
+        pc.reset()  # PETSc's MUMPS interface does not factorise again after a failed factorisation
+        return False
+
+    def _lowest_shift(self, w: _Work) -> float:
+        """lam0: the smallest of 0, FIRST_SHIFT x 10^k whose factorisation has no negative pivot (left in the KSP).
+
+        As :func:`~suture_fem.solve.inertia.correct`: from one below the last Jacobian's lam0, up while the
+        factorisation has negative pivots, else down while it has none.
+        """
+        if self._factorise(w, 0.0):
+            return 0.0
+        lam = max(w.lam0 / 10.0, FIRST_SHIFT)
+        if self._factorise(w, lam):
+            while lam > FIRST_SHIFT and self._factorise(w, lam / 10.0):
+                lam /= 10.0
+            if lam > FIRST_SHIFT:  # the last factorisation tried was lam / 10's: lam's again
+                self._factorise(w, lam)
+            return lam
+        while not self._factorise(w, 10.0 * lam):
+            lam *= 10.0
+            if lam > LAST_SHIFT:
+                raise _NoShift
+        return 10.0 * lam
+
+    def _step(self, w: _Work, g: Any) -> float:
+        """The step p(lam) into ``w.p`` with |p| <= delta (lam >= lam0); returns |p|."""
+        if w.norm0 <= self.delta:
+            w.p0.copy(w.p)
+            return w.norm0
+        ksp = self.newton.snes.getKSP()
+        lo, norm_lo = w.lam0, w.norm0
+        hi = max(w.lam, 10.0 * w.lam0, FIRST_SHIFT)
+        while True:  # bracket: |p(lo)| > delta >= |p(hi)|
+            self._factorise(w, hi)
+            norm = _solve(ksp, g, w.p)
+            if norm <= self.delta:
+                break
+            lo, norm_lo, hi = hi, norm, 30.0 * hi
+            if hi > LAST_SHIFT:
+                break
+        for _ in range(SHIFT_TRIES):
+            if norm >= 0.5 * self.delta:
+                break
+            if lo > 0:  # log |p| linear in log lam between the bracket's ends, aimed at 0.75 delta
+                t = (np.log(norm_lo) - np.log(0.75 * self.delta)) / (np.log(norm_lo) - np.log(norm))
+                mid = float(np.exp(np.log(lo) + min(max(t, 0.1), 0.9) * (np.log(hi) - np.log(lo))))
+            else:
+                mid = hi / 30.0
+            self._factorise(w, mid)
+            trial = _solve(ksp, g, w.Ap)
+            if trial <= self.delta:
+                hi, norm = mid, trial
+                w.Ap.copy(w.p)
+            else:
+                lo, norm_lo = mid, trial
+        w.lam = hi
+        return norm
+
+
+class _NoShift(RuntimeError):
+    """No shift up to LAST_SHIFT |diag A| removed the Jacobian's negative pivots."""
+
+
+class _Work:
+    """The vectors and the shifted matrix of one trust-region solve."""
+
+    def __init__(self, x: Any):
+        self.trial, self.p, self.p0, self.Ap = (x.duplicate() for _ in range(4))
+        self.M: Any = None
+        self.diag: Any = None
+        self.scale: Any = None
+        self.lam0 = self.lam = 0.0
+        self.norm0 = 0.0
+
+    def matrix(self, A: Any) -> None:
+        """M = A's copy (to be shifted), its diagonal and |diag A|."""
+        if self.M is None:
+            self.M = A.duplicate(copy=True)
+        else:
+            A.copy(self.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        for v in (self.diag, self.scale):
+            if v is not None:
+                v.destroy()
+        self.diag = A.getDiagonal()
+        self.scale = self.diag.copy()
+        self.scale.abs()
+
+    def destroy(self) -> None:
+        """Free every PETSc object."""
+        for obj in (self.trial, self.p, self.p0, self.Ap, self.M, self.diag, self.scale):
+            if obj is not None:
+                obj.destroy()
+
+
+def _solve(ksp: Any, g: Any, p: Any) -> float:
+    """The step -K^-1 g into p, K the KSP's factorisation; returns |p|."""
+    g.scale(-1.0)
+    try:
+        ksp.solve(g, p)
+    finally:
+        g.scale(-1.0)
+    return p.norm()
+
+
+def _kept(newton: Any, w: _Work, f: float, ft: float, predicted: float, small: bool, gnorm: float) -> bool:
+    """Whether the trial state is kept: the energy's fall against the prediction, or |g| below its rounding.
+
+    ``ft``: the trial's energy, just evaluated (the memo then holds its admissibility).
+    """
+    if not newton.memo.admissible:  # the trial's verdict, just made by the objective
+        return False
+    if not small and abs(predicted) >= 1e-11 * abs(f):
+        return predicted > 0 and (f - ft) >= RHO_KEEP * predicted
+    residual = w.Ap  # free after the prediction
+    newton._residual(None, w.trial, residual)
+    return residual.norm() < gnorm

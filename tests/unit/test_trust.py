@@ -1,0 +1,194 @@
+"""The trust region on the energy (suture_fem/solve/trust.py) on a two-unknown energy with a saddle.
+
+E(x, y) = (x^2 - 1)^2 / 4 + TILT x + y^2 / 2 has two minima near x = -1 and x = +1 and a saddle near x = TILT
+(the roots of x^3 - x + TILT). From (0, 0.5) the Hessian is indefinite (E_xx = -1): Newton's iteration on the
+gradient goes to the saddle, the trust region to the minimum downhill, x near -1.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from suture_fem.outputs.results import SolverRecord
+from suture_fem.solve import trust
+from suture_fem.solve.memo import IterateMemo
+from suture_fem.solve.records import RampResult, Timings
+
+TILT = 0.01
+
+
+def energy(v: np.ndarray) -> float:
+    x, y = v
+    return (x * x - 1.0) ** 2 / 4.0 + TILT * x + y * y / 2.0
+
+
+def gradient(v: np.ndarray) -> np.ndarray:
+    x, y = v
+    return np.array([x ** 3 - x + TILT, y])
+
+
+def hessian(v: np.ndarray) -> np.ndarray:
+    return np.array([[3.0 * v[0] ** 2 - 1.0, 0.0], [0.0, 1.0]])
+
+
+class _Fake:
+    """What TrustRegion uses of a NewtonSolver, on E above (the identity reduction, one process)."""
+
+    def __init__(self, start: tuple[float, float], forbidden_below: float = -np.inf):
+        comm = MPI.COMM_SELF
+        self.forbidden_below = forbidden_below
+        self.x = PETSc.Vec().createSeq(2, comm=comm)
+        self.x.setArray(np.array(start, dtype=float))
+        self.b = self.x.duplicate()
+        self.A_full = PETSc.Mat().createAIJ((2, 2), nnz=2, comm=comm)  # MUMPS factorises AIJ, not dense
+        self.A_full.setValues([0, 1], [0, 1], np.eye(2))
+        self.A_full.assemble()
+        self.T = PETSc.Mat().createAIJ((2, 2), nnz=1, comm=comm)
+        for i in range(2):
+            self.T.setValue(i, i, 1.0)
+        self.T.assemble()
+        self.A = self.A_full.ptap(self.T)  # reused by ptap, as NewtonSolver.A is
+        values = np.array(start, dtype=float)  # the state's array, and its "PETSc vector" for restrict
+        self.state = SimpleNamespace(x=SimpleNamespace(array=values, scatter_forward=lambda: None), vector=values)
+        self.physics = SimpleNamespace(comm=comm, state=self.state)
+        self.reduction = SimpleNamespace(T=self.T, restrict=self._restrict, expand=self._expand)
+        self.memo = IterateMemo(comm)
+        self.timings = Timings()
+        self.options = SimpleNamespace(max_iterations=25, trust_region="on", inertia_correction=True)
+        self.stops = SimpleNamespace(loose=0.0)
+        self.guard = SimpleNamespace(anchor=lambda: None)
+        self.objective_form = object()
+        self.linear_solver = "mumps"
+        self.largest_solve = 0
+        self.floor = 0.0
+        self.last_violation = None
+        self.jacobian_current = self.factorised = False
+        ksp = PETSc.KSP().create(comm)
+        ksp.setType("preonly")
+        ksp.getPC().setType("cholesky")
+        ksp.getPC().setFactorSolverType("mumps")
+        self.snes = SimpleNamespace(getKSP=lambda: ksp)
+        self.ksp = ksp
+
+    def _restrict(self, u, x) -> None:
+        x.setArray(np.asarray(u, dtype=float))
+
+    def _expand(self, x) -> None:
+        self.state.x.array[:] = x.getArray(readonly=True)
+
+    def _objective(self, snes, x) -> float:
+        v = x.getArray(readonly=True).copy()
+        self._expand(x)
+        self.memo.at(x)
+        self.memo.admissible = bool(v[0] >= self.forbidden_below)
+        return energy(v) if self.memo.admissible else 1e30
+
+    def _residual(self, snes, x, b) -> None:
+        b.setArray(gradient(x.getArray(readonly=True).copy()))
+
+    def _assemble_full_jacobian(self) -> None:
+        self.A_full.setValues([0, 1], [0, 1], hessian(self.state.x.array))
+        self.A_full.assemble()
+
+    def round_off_floor(self, x) -> float:
+        return 0.0
+
+    def absolute_tolerance(self) -> float:
+        return 1e-12
+
+
+def _saddle_and_minimum() -> tuple[float, float]:
+    roots = np.sort(np.roots([1.0, 0.0, -1.0, TILT]).real)
+    return roots[1], roots[0]  # the saddle near TILT, the minimum near -1
+
+
+def test_newton_on_the_gradient_goes_to_the_saddle_the_trust_region_to_the_minimum():
+    saddle, minimum = _saddle_and_minimum()
+    v = np.array([0.0, 0.5])
+    for _ in range(20):  # plain Newton on the gradient, for contrast
+        v = v - np.linalg.solve(hessian(v), gradient(v))
+    assert v[0] == pytest.approx(saddle, abs=1e-12)
+
+    fake = _Fake((0.0, 0.5))
+    region = trust.TrustRegion(fake)
+    ok, its, reason = region.solve()
+    x = fake.x.getArray(readonly=True)
+    assert ok and reason == "CONVERGED_FNORM_ABS"
+    assert x[0] == pytest.approx(minimum, abs=1e-10) and abs(x[1]) < 1e-10
+    assert np.all(np.linalg.eigvalsh(hessian(x)) > 0)  # a minimum
+    assert fake.state.x.array[0] == pytest.approx(minimum, abs=1e-10)  # the state is the solution
+    assert region.record == {"solves": 1, "converged": 1, "iterations": its,
+                             "factorisations": region.record["factorisations"]}
+    assert region.record["factorisations"] >= its  # at least one per Jacobian (shifted where indefinite)
+
+
+def test_a_trial_outside_the_domain_shrinks_the_radius_and_is_never_kept():
+    _, minimum = _saddle_and_minimum()
+    fake = _Fake((0.0, 0.5), forbidden_below=-1.05)
+    region = trust.TrustRegion(fake)
+    region.delta = 50.0  # the first steps overshoot into x < -1.05
+    tried, kept = [], []
+    objective, residual = fake._objective, fake._residual
+    fake._objective = lambda snes, x: tried.append(x.getArray(readonly=True)[0]) or objective(snes, x)
+    fake._residual = lambda snes, x, b: kept.append(x.getArray(readonly=True)[0]) or residual(snes, x, b)
+    ok, _, _ = region.solve()
+    assert ok and fake.x.getArray(readonly=True)[0] == pytest.approx(minimum, abs=1e-10)
+    assert min(tried) < -1.05  # trial states went outside ...
+    assert min(kept) >= -1.05  # ... and every state the residual was taken at (the kept ones) is inside
+    assert region.delta < 50.0
+
+
+def test_after_solves_again_from_the_failed_solve_s_start():
+    fake = _Fake((0.0, 0.5))
+    region = trust.TrustRegion(fake)
+
+    def failing(loose: float = 0.0):
+        fake.state.x.array[:] = [7.0, 7.0]  # a failed solve leaves its last iterate
+        return False, 3, "DIVERGED_LINE_SEARCH"
+
+    ok, its, reason = region.after(failing)()
+    assert ok and reason == "CONVERGED_FNORM_ABS" and its > 3
+    assert fake.state.x.array[0] == pytest.approx(_saddle_and_minimum()[1], abs=1e-10)
+
+    def converged(loose: float = 0.0):
+        return True, 2, "CONVERGED_FNORM_ABS"
+
+    assert region.after(converged)() == (True, 2, "CONVERGED_FNORM_ABS")  # a converged solve is left alone
+    assert region.record["solves"] == 1
+
+
+@pytest.mark.parametrize(("mode", "convexified", "objective", "built"), [
+    ("off", True, True, False),
+    ("auto", True, True, True),
+    ("auto", False, True, False),  # P1 cones: their Jacobian is exact
+    ("auto", None, True, False),  # no cones' contact
+    ("on", None, True, True),
+    ("on", None, False, False),  # no energy to judge a step by
+])
+def test_which_scenes_get_the_trust_region(mode, convexified, objective, built):
+    fake = _Fake((0.0, 0.5))
+    fake.options.trust_region = mode
+    if convexified is not None:
+        fake.physics.cone_contact = SimpleNamespace(convexified=convexified)
+    fake.objective_form = object() if objective else None
+    assert (trust.TrustRegion.of(fake) is not None) is built
+
+
+def test_a_start_outside_the_domain_is_refused_at_once():
+    fake = _Fake((-2.0, 0.5), forbidden_below=-1.05)
+    region = trust.TrustRegion(fake)
+    assert region.solve() == (False, 0, "DIVERGED_FUNCTION_DOMAIN")
+    assert region.record["factorisations"] == 0
+
+
+def test_results_json_holds_the_counts_only_where_the_trust_region_solved():
+    history = RampResult()
+    history.trust_region = {"solves": 0, "converged": 0, "iterations": 0, "factorisations": 0}
+    assert "trust_region" not in SolverRecord.from_history(history).as_dict()
+    history.trust_region = {"solves": 2, "converged": 1, "iterations": 40, "factorisations": 90}
+    assert SolverRecord.from_history(history).as_dict()["trust_region"] == history.trust_region

@@ -97,9 +97,10 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
                 'mu 0.3, against 0.94 N tied): follow the pull with loading.control = "displacement" '
                 "(docs/contact.md: Nothing tied)")
     if degree == 2:
-        return ("; the cones' contact is carried by mesh.degree = 1 (the paper scene to 4 N); at P2 one frictionless "
-                "cone stops at 0.99 N pulled to 1 N and in its first step pulled to 4 N, four at 1.14 N "
-                "(docs/contact.md: P2 cones)")
+        return ("; the cones' contact is carried furthest by mesh.degree = 1 (the paper scene to 4 N); at P2 the "
+                'trust region (solver.trust_region = "auto") carries one and four frictionless cones of the paper '
+                "scene to 4 N, at 2 and 11 times P1's Newton iterations (docs/contact.md: A trust region for the P2 "
+                "cones)")
     if effects.cone_interface == "sliding" and not walled:
         return ""  # the tissue's advice, below
     if effects.cone_interface == "sliding":  # its pure penalty's penetration reached the wall guard

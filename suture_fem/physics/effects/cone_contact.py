@@ -141,15 +141,13 @@ class ConeContact(SlipBound):
 
     @classmethod
     def on(cls, physics: Any, scene: Any) -> ConeContact:
-        """The cones' contact of a built Physics (its cone surfaces split); its numbers join the record.
-
-        From the scene's ``[effects]``: ``cone_interface``, ``cone_contact_method`` and its penalty, friction, target.
-        """
+        """The cones' contact of a built Physics from its scene's ``[effects]``; its numbers join the record."""
         section = scene.effects
-        factor = section.augmented_penalty if cones_augmented(section) else section.contact_penalty
+        degree = getattr(physics, "degree", 1)  # the augmented penalty grows as degree^2 / h (docs/contact.md)
+        factor = section.augmented_penalty * degree**2 if cones_augmented(section) else section.contact_penalty
         kappa = penalty_stiffness(scene, physics.tagged.sizes.suture, factor)
         target = section.contact_penetration_mm * regions.MM if cones_augmented(section) else None
-        p2 = getattr(physics, "degree", 1) != 1  # also held at rest: P2 cones failed their first step without it
+        p2 = degree != 1  # also held at rest: P2 cones failed their first step without it
         pairs = cone_pairs(physics, hold_next_layer=section.thread_track)
         contact = cls(physics.comm, compat.function_vector(physics.state), pairs, kappa,
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,

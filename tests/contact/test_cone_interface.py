@@ -165,7 +165,7 @@ def test_a_frictionless_cone_at_p2_converges_with_shares_summing_to_the_pull(tmp
     assert contact["cones"]["cone_1"]["penetration_max_mm"] <= 1.5e-4  # the augmented Lagrangian's target
 
 
-@pytest.mark.long  # one P2 step from rest to 0.4 N, about a minute; benchmarks/long_tests.py
+@pytest.mark.long  # one P2 step from rest to 0.4 N, 18 s; benchmarks/long_tests.py
 def test_a_p2_frictionless_cone_s_first_step_is_carried_by_the_trust_region(tmp_path_factory):
     """The step SNES's line search fails (and every halving of it, docs/contact.md "A trust region") converges."""
     res = _run(tmp_path_factory, "frictionless_p2_trust", _cones(

@@ -165,11 +165,19 @@ def test_a_frictionless_cone_at_p2_converges_with_shares_summing_to_the_pull(tmp
     assert contact["cones"]["cone_1"]["penetration_max_mm"] <= 1.5e-4  # the augmented Lagrangian's target
 
 
+#: One P2 frictionless cone pulled to 0.4 N in one step from rest: a step SNES's line search fails.
+TRUST = _cones("frictionless", "mesh.degree=2", "loading.force_n=0.4", "solver.initial_step=1.0", "solver.max_step=1.0")
+
+
+@pytest.fixture(scope="module")
+def p2_trust(tmp_path_factory):
+    return _run(tmp_path_factory, "frictionless_p2_trust", TRUST)
+
+
 @pytest.mark.long  # one P2 step from rest to 0.4 N, 18 s; benchmarks/long_tests.py
-def test_a_p2_frictionless_cone_s_first_step_is_carried_by_the_trust_region(tmp_path_factory):
+def test_a_p2_frictionless_cone_s_first_step_is_carried_by_the_trust_region(p2_trust):
     """The step SNES's line search fails (and every halving of it, docs/contact.md "A trust region") converges."""
-    res = _run(tmp_path_factory, "frictionless_p2_trust", _cones(
-        "frictionless", "mesh.degree=2", "loading.force_n=0.4", "solver.initial_step=1.0", "solver.max_step=1.0"))
+    res = p2_trust
     rec = res["at_forces"][-1]
     assert res["status"] == "converged" and rec["force_n"] == pytest.approx(0.4)
     assert res["scene"]["solver"]["trust_region"] == "auto"
@@ -177,6 +185,17 @@ def test_a_p2_frictionless_cone_s_first_step_is_carried_by_the_trust_region(tmp_
     assert sum(rec["load_share_n"].values()) == pytest.approx(rec["force_n"], rel=1e-9)
     assert rec["free_residual_norm_n"] <= 1e-6 * rec["force_n"]
     assert rec["interface"]["cone_contact"]["cones"]["cone_1"]["penetration_max_mm"] <= 1.5e-4
+
+
+@pytest.mark.long  # the same on two ranks, 25 s
+def test_the_trust_region_on_two_ranks_equals_serial(tmp_path_factory, p2_trust):
+    two = _run(tmp_path_factory, "frictionless_p2_trust_mpi", TRUST, ranks=2)
+    assert two["trust_region"] == p2_trust["trust_region"]  # the same solves, iterations and factorisations
+    assert two["newton_iterations"] == p2_trust["newton_iterations"]
+    one, other = p2_trust["at_forces"][-1], two["at_forces"][-1]
+    assert other["usum_mm"] == pytest.approx(one["usum_mm"], rel=1e-12)  # measured 5e-16
+    for name, share in one["load_share_n"].items():
+        assert other["load_share_n"][name] == pytest.approx(share, rel=1e-10)
 
 
 def test_the_augmented_lagrangian_meets_its_target_whatever_its_penalty(tmp_path_factory, frictionless):

@@ -95,21 +95,9 @@ def correct(ksp: Any, A: Any) -> tuple[bool, int]:
     original = A.getDiagonal()
     scale = original.copy()
     scale.abs()
-    k = max(0, (ksp.getAttr(LAST_SHIFT) or 0) - 1)
-    negative, extra = _shifted(ksp, A, original, scale, SHIFTS[k]), 1
-    while (negative is None or negative > 0) and k < MAX_TRIES - 1:  # None: a shift made it singular, go on
-        k += 1
-        negative, extra = _shifted(ksp, A, original, scale, SHIFTS[k]), extra + 1
-    failed = negative is None or negative > 0
-    if not failed and extra == 1:  # the first one tried already had none: the smaller ones, while they have none
-        while k > 0:
-            lower, extra = _shifted(ksp, A, original, scale, SHIFTS[k - 1]), extra + 1
-            if lower is None or lower > 0:
-                _shifted(ksp, A, original, scale, SHIFTS[k])
-                extra += 1
-                break
-            k -= 1
-    shift = SHIFTS[k]
+    k, extra = smallest_shift(ksp, A, original, scale, SHIFTS, max(0, (ksp.getAttr(LAST_SHIFT) or 0) - 1))
+    failed = k is None
+    shift = SHIFTS[-1] if k is None else SHIFTS[k]
     if failed:  # no shift helped: the Jacobian as it was
         A.setDiagonal(original)
         _factorise(ksp, A)
@@ -122,6 +110,38 @@ def correct(ksp: Any, A: Any) -> tuple[bool, int]:
     original.destroy()
     scale.destroy()
     return not failed, extra
+
+
+def smallest_shift(ksp: Any, A: Any, original: Any, scale: Any, shifts: list[float], start: int
+                   ) -> tuple[int | None, int]:
+    """The index of the smallest of ``shifts`` whose A (diagonal original + shift x scale) has no negative pivot.
+
+    Searched from ``start``: up while the factorisation has negative pivots (or fails), else down while it has
+    none. A is left shifted by the shift found and its factorisation in the KSP (whose operator A must be);
+    None when none of them has none (A left shifted by the last). Returns (index or None, factorisations made).
+    """
+    k = start
+    negative, extra = _shifted(ksp, A, original, scale, shifts[k]), 1
+    while (negative is None or negative > 0) and k < len(shifts) - 1:  # None: a shift made it singular, go on
+        k += 1
+        negative, extra = _shifted(ksp, A, original, scale, shifts[k]), extra + 1
+    if negative is None or negative > 0:
+        return None, extra
+    if extra == 1:  # the first one tried already had none: the smaller ones, while they have none
+        while k > 0:
+            lower, extra = _shifted(ksp, A, original, scale, shifts[k - 1]), extra + 1
+            if lower is None or lower > 0:
+                _shifted(ksp, A, original, scale, shifts[k])
+                extra += 1
+                break
+            k -= 1
+    return k, extra
+
+
+def shifted_definite(ksp: Any, A: Any, original: Any, scale: Any, shift: float) -> bool:
+    """Make A's diagonal original + shift x scale and factorise it now (as the KSP's operator): no negative pivot?"""
+    ksp.setOperators(A, A)
+    return _shifted(ksp, A, original, scale, shift) == 0
 
 
 def _shifted(ksp: Any, A: Any, original: Any, scale: Any, shift: float) -> int | None:

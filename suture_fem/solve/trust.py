@@ -40,7 +40,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from suture_fem.solve import jacobian
+from suture_fem.solve import inertia, jacobian
 from suture_fem.solve.stopping import FULL_STEP_RESIDUAL, force_scale
 from suture_fem.support import compat
 
@@ -56,6 +56,7 @@ SHRINK, MIN_RADIUS = 0.25, 1e-14
 FIRST_RADIUS = 1e-3
 #: Shifts of lam0's ladder (times |diag A|) after 0; beyond the last the Jacobian counts as failed.
 FIRST_SHIFT, LAST_SHIFT = 1e-8, 1e6
+SHIFTS = [FIRST_SHIFT * 10.0**k for k in range(15)]  # 1e-8 ... 1e6
 #: Tries at the shift that puts |p| between half the radius and the radius.
 SHIFT_TRIES = 6
 #: Iterations of one solve, in units of ``solver.max_iterations``.
@@ -195,43 +196,22 @@ class TrustRegion:
     def _factorise(self, w: _Work, lam: float) -> bool:
         """Factorise A + lam D into the KSP; whether it has no negative pivot (a failed one counts as having)."""
         self.record["factorisations"] += 1
-        shifted = w.diag.copy()
-        shifted.axpy(lam, w.scale)
-        w.M.setDiagonal(shifted)
-        shifted.destroy()
-        ksp = self.newton.snes.getKSP()
-        ksp.setOperators(w.M, w.M)
-        pc = ksp.getPC()
-        pc.setUp()
-        try:
-            factor = pc.getFactorMatrix()
-            if factor.getMumpsInfog(1) >= 0:
-                return int(factor.getMumpsInfog(12)) == 0
-        except PETSc.Error:
-            pass
-        pc.reset()  # PETSc's MUMPS interface does not factorise again after a failed factorisation
-        return False
+        return inertia.shifted_definite(self.newton.snes.getKSP(), w.M, w.diag, w.scale, lam)
 
     def _lowest_shift(self, w: _Work) -> float:
-        """lam0: the smallest of 0, FIRST_SHIFT x 10^k whose factorisation has no negative pivot (left in the KSP).
+        """lam0: the smallest of 0 and :data:`SHIFTS` whose factorisation has no negative pivot (left in the KSP).
 
-        As :func:`~suture_fem.solve.inertia.correct`: from one below the last Jacobian's lam0, up while the
-        factorisation has negative pivots, else down while it has none.
+        :func:`~suture_fem.solve.inertia.smallest_shift` on this ladder, from one below the last Jacobian's.
         """
         if self._factorise(w, 0.0):
+            w.k0 = None
             return 0.0
-        lam = max(w.lam0 / 10.0, FIRST_SHIFT)
-        if self._factorise(w, lam):
-            while lam > FIRST_SHIFT and self._factorise(w, lam / 10.0):
-                lam /= 10.0
-            if lam > FIRST_SHIFT:  # the last factorisation tried was lam / 10's: lam's again
-                self._factorise(w, lam)
-            return lam
-        while not self._factorise(w, 10.0 * lam):
-            lam *= 10.0
-            if lam > LAST_SHIFT:
-                raise _NoShift
-        return 10.0 * lam
+        start = 0 if w.k0 is None else max(w.k0 - 1, 0)
+        w.k0, extra = inertia.smallest_shift(self.newton.snes.getKSP(), w.M, w.diag, w.scale, SHIFTS, start)
+        self.record["factorisations"] += extra
+        if w.k0 is None:
+            raise _NoShift
+        return SHIFTS[w.k0]
 
     def _step(self, w: _Work, g: Any) -> float:
         """The step p(lam) into ``w.p`` with |p| <= delta (lam >= lam0); returns |p|."""
@@ -281,6 +261,7 @@ class _Work:
         self.diag: Any = None
         self.scale: Any = None
         self.lam0 = self.lam = 0.0
+        self.k0: int | None = None  # lam0's place on SHIFTS (None: 0)
         self.norm0 = 0.0
 
     def matrix(self, A: Any) -> None:

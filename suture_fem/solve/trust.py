@@ -40,6 +40,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from suture_fem.physics.effects.cone_model import GapModel, state_vector
 from suture_fem.solve import inertia, jacobian
 from suture_fem.solve.stopping import FULL_STEP_RESIDUAL, force_scale
 from suture_fem.support import compat
@@ -61,6 +62,8 @@ SHIFTS = [FIRST_SHIFT * 10.0**k for k in range(15)]  # 1e-8 ... 1e6
 SHIFT_TRIES = 6
 #: Iterations of one solve, in units of ``solver.max_iterations``.
 ITERATIONS_PER_MAX = 8
+#: Solves of one step's model with the pairs it presses joined (:mod:`~suture_fem.physics.effects.cone_model`).
+JOINS = 4
 
 
 class TrustRegion:
@@ -73,6 +76,7 @@ class TrustRegion:
         """The fallback of ``newton``; :meth:`of` says whether a scene wants one."""
         self.newton = newton
         self.delta = FIRST_RADIUS
+        self.gaps = GapModel.of(newton.physics, newton.reduction)  # the open pairs in the model, or None
         self.record: dict[str, int] = self.begin()
 
     @classmethod
@@ -142,6 +146,7 @@ class TrustRegion:
             return False, 0, "DIVERGED_FUNCTION_DOMAIN"
         newton._residual(None, x, g)
         self._jacobian()
+        self._centre(x)
         newton.floor = newton.round_off_floor(x)
         atol, force = max(newton.absolute_tolerance(), loose), force_scale(newton.physics)
         its, fresh = 0, True
@@ -159,7 +164,7 @@ class TrustRegion:
                 fresh = False
             norm = self._step(w, g)
             newton.A.mult(w.p, w.Ap)
-            predicted = -(g.dot(w.p) + 0.5 * w.p.dot(w.Ap))
+            predicted = -(g.dot(w.p) + 0.5 * w.p.dot(w.Ap)) - w.pressing
             w.trial.waxpy(1.0, w.p, x)
             ft = newton._objective(None, w.trial)
             its += 1
@@ -173,6 +178,7 @@ class TrustRegion:
                 f = ft
                 newton._residual(None, x, g)
                 self._jacobian()
+                self._centre(x)
                 fresh = True
                 if ratio > RHO_GOOD and norm > 0.45 * self.delta:
                     self.delta = max(self.delta, GROW * norm)
@@ -213,7 +219,54 @@ class TrustRegion:
             raise _NoShift
         return SHIFTS[w.k0]
 
+    def _centre(self, x: Any) -> None:
+        """The open pairs' model (where kept) centred on the iterate ``x``."""
+        if self.gaps is not None:
+            self.newton.reduction.expand(x)
+            self.gaps.at(state_vector(self.newton.physics))
+
     def _step(self, w: _Work, g: Any) -> float:
+        """The model's step into ``w.p`` with |p| <= delta; returns |p|. ``w.pressing``: the open pairs' model energy.
+
+        The expansion's step p(lam) (:meth:`_shifted_step`); where that presses open pairs, the step of the model
+        with them joined (:meth:`_joined_step`).
+        """
+        w.pressing = 0.0
+        norm = self._shifted_step(w, g)
+        if self.gaps is None:
+            return norm
+        lam = w.lam0 if w.norm0 <= self.delta else w.lam
+        joined = np.zeros(self.gaps.contact.pairs, dtype=bool)
+        for _ in range(JOINS):
+            pressed = self.gaps.pressed(self.gaps.change(w.p))
+            if not self.gaps.any(pressed & ~joined):
+                break
+            joined |= pressed
+            norm = self._joined_step(w, g, joined, lam)
+        w.pressing = self.gaps.energy(self.gaps.change(w.p))
+        return norm
+
+    def _joined_step(self, w: _Work, g: Any, joined: np.ndarray, lam: float) -> float:
+        """The step of the model with the ``joined`` open pairs' terms, shifted by ``lam`` and cut to the radius."""
+        newton = self.newton
+        w.joined(newton)
+        self.gaps.add(joined, w.F, w.b)
+        w.K = w.F.ptap(newton.reduction.T) if w.K is None else w.F.ptap(newton.reduction.T, w.K)
+        newton.reduction.T.multTranspose(w.b, w.g)
+        w.g.axpy(1.0, g)
+        diag = w.K.getDiagonal()
+        self.record["factorisations"] += 1
+        try:
+            inertia.shifted_definite(newton.snes.getKSP(), w.K, diag, w.scale, lam)
+        finally:
+            diag.destroy()
+        norm = _solve(newton.snes.getKSP(), w.g, w.p)
+        if norm > self.delta:
+            w.p.scale(self.delta / norm)
+            norm = self.delta
+        return norm
+
+    def _shifted_step(self, w: _Work, g: Any) -> float:
         """The step p(lam) into ``w.p`` with |p| <= delta (lam >= lam0); returns |p|."""
         if w.norm0 <= self.delta:
             w.p0.copy(w.p)
@@ -263,6 +316,20 @@ class _Work:
         self.lam0 = self.lam = 0.0
         self.k0: int | None = None  # lam0's place on SHIFTS (None: 0)
         self.norm0 = 0.0
+        self.pressing = 0.0  # the open pairs' model energy at the step (J)
+        self.F: Any = None  # the full Jacobian with joined pairs, its reduction K (made by ptap), their residuals b, g
+        self.K: Any = None
+        self.b: Any = None
+        self.g = x.duplicate()
+
+    def joined(self, newton: Any) -> None:
+        """F = the iterate's full Jacobian, b = 0: ready for the joined pairs' terms."""
+        if self.F is None:
+            self.F = newton.A_full.duplicate(copy=True)
+            self.b = newton.b_full.duplicate()
+        else:
+            newton.A_full.copy(self.F, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.b.set(0.0)
 
     def matrix(self, A: Any) -> None:
         """M = A's copy (to be shifted), its diagonal and |diag A|."""
@@ -279,7 +346,8 @@ class _Work:
 
     def destroy(self) -> None:
         """Free every PETSc object."""
-        for obj in (self.trial, self.p, self.p0, self.Ap, self.M, self.diag, self.scale):
+        for obj in (self.trial, self.p, self.p0, self.Ap, self.M, self.diag, self.scale, self.F, self.K, self.b,
+                    self.g):
             if obj is not None:
                 obj.destroy()
 

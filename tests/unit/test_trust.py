@@ -15,6 +15,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem.outputs.results import SolverRecord
+from suture_fem.physics.effects.cone_model import GapModel
+from suture_fem.physics.effects.pattern import ConeLayout
 from suture_fem.solve import trust
 from suture_fem.solve.memo import IterateMemo
 from suture_fem.solve.records import RampResult, Timings
@@ -37,19 +39,25 @@ def hessian(v: np.ndarray) -> np.ndarray:
 
 
 class _Fake:
-    """What TrustRegion uses of a NewtonSolver, on E above (the identity reduction, one process)."""
+    """What TrustRegion uses of a NewtonSolver, on E above or ``energy`` (the identity reduction, one process).
 
-    def __init__(self, start: tuple[float, float], forbidden_below: float = -np.inf):
+    ``energy``: (E, its gradient, its Hessian) of the unknowns, or None for E above.
+    """
+
+    def __init__(self, start: tuple[float, ...], forbidden_below: float = -np.inf, energy: tuple | None = None):
         comm = MPI.COMM_SELF
+        size = len(start)
+        self.E, self.gradient, self.hessian = energy or (globals()["energy"], gradient, hessian)
         self.forbidden_below = forbidden_below
-        self.x = PETSc.Vec().createSeq(2, comm=comm)
+        self.x = PETSc.Vec().createSeq(size, comm=comm)
         self.x.setArray(np.array(start, dtype=float))
         self.b = self.x.duplicate()
-        self.A_full = PETSc.Mat().createAIJ((2, 2), nnz=2, comm=comm)  # MUMPS factorises AIJ, not dense
-        self.A_full.setValues([0, 1], [0, 1], np.eye(2))
+        self.b_full = self.x.duplicate()
+        self.A_full = PETSc.Mat().createAIJ((size, size), nnz=size, comm=comm)  # MUMPS factorises AIJ, not dense
+        self.A_full.setValues(range(size), range(size), np.eye(size))  # every entry in the pattern
         self.A_full.assemble()
-        self.T = PETSc.Mat().createAIJ((2, 2), nnz=1, comm=comm)
-        for i in range(2):
+        self.T = PETSc.Mat().createAIJ((size, size), nnz=1, comm=comm)
+        for i in range(size):
             self.T.setValue(i, i, 1.0)
         self.T.assemble()
         self.A = self.A_full.ptap(self.T)  # reused by ptap, as NewtonSolver.A is
@@ -86,13 +94,14 @@ class _Fake:
         self._expand(x)
         self.memo.at(x)
         self.memo.admissible = bool(v[0] >= self.forbidden_below)
-        return energy(v) if self.memo.admissible else 1e30
+        return self.E(v) if self.memo.admissible else 1e30
 
     def _residual(self, snes, x, b) -> None:
-        b.setArray(gradient(x.getArray(readonly=True).copy()))
+        b.setArray(self.gradient(x.getArray(readonly=True).copy()))
 
     def _assemble_full_jacobian(self) -> None:
-        self.A_full.setValues([0, 1], [0, 1], hessian(self.state.x.array))
+        size = len(self.state.x.array)
+        self.A_full.setValues(range(size), range(size), self.hessian(self.state.x.array))
         self.A_full.assemble()
 
     def round_off_floor(self, x) -> float:
@@ -173,7 +182,7 @@ def test_which_scenes_get_the_trust_region(mode, convexified, objective, built):
     fake = _Fake((0.0, 0.5))
     fake.options.trust_region = mode
     if convexified is not None:
-        fake.physics.cone_contact = SimpleNamespace(convexified=convexified)
+        fake.physics.cone_contact = SimpleNamespace(convexified=convexified, bilateral=True)  # no gap model
     fake.objective_form = object() if objective else None
     assert (trust.TrustRegion.of(fake) is not None) is built
 
@@ -191,3 +200,81 @@ def test_results_json_holds_the_counts_only_where_the_trust_region_solved():
     assert "trust_region" not in SolverRecord.from_history(history).as_dict()
     history.trust_region = {"solves": 2, "converged": 1, "iterations": 40, "factorisations": 90}
     assert SolverRecord.from_history(history).as_dict()["trust_region"] == history.trust_region
+
+
+# A tissue node (unknowns u_r, u_z) pushed by FORCE onto a plane its cone (axial unknown t) carries: the gap
+# phi = GAP + u_z - t, the pair's penalty KAPPA <-phi>^2 / 2 (weight 1, no multiplier), springs of stiffness 1.
+GAP, FORCE, KAPPA = 0.1, 1.0, 1e4
+NORMAL = np.array([0.0, 1.0, -1.0])  # d phi / d(u_r, u_z, t)
+
+
+def _obstacle_energy(v: np.ndarray) -> float:
+    return 0.5 * v @ v + FORCE * v[1] + 0.5 * KAPPA * max(-(GAP + v[1] - v[2]), 0.0) ** 2
+
+
+def _obstacle_gradient(v: np.ndarray) -> np.ndarray:
+    return v + np.array([0.0, FORCE, 0.0]) - KAPPA * max(-(GAP + v[1] - v[2]), 0.0) * NORMAL
+
+
+def _obstacle_hessian(v: np.ndarray) -> np.ndarray:
+    closed = GAP + v[1] - v[2] <= 0.0  # a touching node holds (touch_holds), as the P2 cones' do
+    return np.eye(3) + (KAPPA * np.outer(NORMAL, NORMAL) if closed else 0.0)
+
+
+class _Obstacle:
+    """What GapModel uses of a ConeContact, for the node and plane above (one pair, one cone, one process)."""
+
+    def __init__(self, move):
+        self.comm = MPI.COMM_SELF
+        self.pairs, self.kappa, self.touch_holds, self.bilateral = 1, KAPPA, True, False
+        self.weight, self.multiplier = np.ones(1), np.zeros(1)
+        self.dofs, self.cone, self.cone_dofs = np.array([[0, 1]]), np.array([0]), [np.array([2])]
+        self._layout = ConeLayout(self.dofs, self.cone, self.cone_dofs)
+        self._local = PETSc.Vec().createSeq(3, comm=self.comm)
+        index = PETSc.IS().createGeneral(np.arange(3, dtype=PETSc.IntType), comm=self.comm)
+        self._scatter = PETSc.Scatter().create(move, index, self._local, None)
+
+    def search(self, state) -> dict:
+        v = np.asarray(state)
+        return {"phi": np.array([GAP + v[1] - v[2]]), "n": np.array([[0.0, 1.0]])}
+
+    def _pressure(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        trial = self.multiplier - self.kappa * phi
+        return np.where(trial >= 0.0, trial, 0.0), trial >= 0.0
+
+
+def _obstacle_solve(with_gaps: bool) -> tuple[trust.TrustRegion, _Fake, int]:
+    fake = _Fake((0.0, 0.0, 0.0), energy=(_obstacle_energy, _obstacle_gradient, _obstacle_hessian))
+    region = trust.TrustRegion(fake)
+    region.gaps = GapModel(_Obstacle(fake.x), fake.reduction) if with_gaps else None
+    region.delta = 10.0  # beyond the solution: the radius does not hold the steps here, the plane does
+    ok, its, reason = region.solve()
+    assert ok and reason == "CONVERGED_FNORM_ABS"
+    return region, fake, its
+
+
+def test_an_open_pair_the_step_presses_joins_the_model():
+    # the solution, on the closed branch: (1 + KAPPA N N^T) v = -FORCE e_z - KAPPA GAP N
+    exact = np.linalg.solve(np.eye(3) + KAPPA * np.outer(NORMAL, NORMAL), -FORCE * np.eye(3)[1] - KAPPA * GAP * NORMAL)
+    assert GAP + exact[1] - exact[2] < 0.0  # pressed
+    _, with_gaps, its = _obstacle_solve(True)
+    _, without, its_without = _obstacle_solve(False)
+    assert np.allclose(with_gaps.x.getArray(), exact, atol=1e-12)
+    assert np.allclose(without.x.getArray(), exact, atol=1e-12)
+    # without the open pair in its model, every step that reaches the plane is refused: the node creeps up to it
+    assert its <= 3 and its_without >= 4 * its, (its, its_without)
+
+
+def test_the_gap_model_s_energy_is_the_pair_s_penalty_on_the_linearised_gap():
+    fake = _Fake((0.0, 0.0, 0.0), energy=(_obstacle_energy, _obstacle_gradient, _obstacle_hessian))
+    gaps = GapModel(_Obstacle(fake.x), fake.reduction)
+    gaps.at(fake.state.x.array)
+    assert gaps.open.tolist() == [True]
+    step = fake.x.duplicate()
+    for move in ([0.0, -0.05, 0.0], [0.3, -0.2, 0.05], [0.0, 0.1, -0.2]):  # short of the plane, past it, away
+        step.setArray(move)
+        change = gaps.change(step)
+        assert change == pytest.approx([move[1] - move[2]], abs=1e-15)
+        v = np.array(move)
+        assert gaps.energy(change) == pytest.approx(_obstacle_energy(v) - 0.5 * v @ v - FORCE * v[1], abs=1e-12)
+        assert gaps.pressed(change).tolist() == [GAP + change[0] <= 0.0]

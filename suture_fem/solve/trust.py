@@ -16,7 +16,10 @@ is kept when the energy falls by at least RHO_KEEP of what the quadratic model g
 trial state outside the admissible domain counts as a rise); delta then grows to GROW x |p| after a
 well-predicted step that the radius held, and shrinks to SHRINK x |p| after a rejected one. Below the
 energy's rounding (|g| < FULL_STEP_RESIDUAL x force, or a predicted fall below 1e-11 of the energy) a step
-is kept where it lowers |g|. The solve ends at the Newton solve's own residual test.
+is kept where it lowers |g|. The solve ends at the Newton solve's own residual test. Where the cones are
+unilateral (2-D) the model also keeps each open pair's penalty on its linearised gap, and a step that presses
+open pairs is solved again with them joined (:mod:`~suture_fem.physics.effects.cone_model`): without them the
+trust region refused every step that pressed a node lying 0.3 um off its cone and crawled toward it.
 
 Used only where SNES's solve failed, from that solve's start (``solver.trust_region``): "auto" where the
 cones' Jacobian is convexified (P2 unilateral cones, whose ramps stopped near 1 N), "on" for every solve
@@ -40,7 +43,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from suture_fem.physics.effects.cone_model import GapModel, state_vector
+from suture_fem.physics.effects.cone_model import GapModel
 from suture_fem.solve import inertia, jacobian
 from suture_fem.solve.stopping import FULL_STEP_RESIDUAL, force_scale
 from suture_fem.support import compat
@@ -223,7 +226,7 @@ class TrustRegion:
         """The open pairs' model (where kept) centred on the iterate ``x``."""
         if self.gaps is not None:
             self.newton.reduction.expand(x)
-            self.gaps.at(state_vector(self.newton.physics))
+            self.gaps.at(compat.function_vector(self.newton.physics.state))
 
     def _step(self, w: _Work, g: Any) -> float:
         """The model's step into ``w.p`` with |p| <= delta; returns |p|. ``w.pressing``: the open pairs' model energy.

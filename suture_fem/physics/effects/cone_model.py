@@ -24,8 +24,6 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from suture_fem.support import compat
-
 
 class GapModel:
     """The open pairs of a :class:`~.cone_contact.ConeContact` in the trust region's model (collective)."""
@@ -102,12 +100,3 @@ class GapModel:
     def any(self, mask: np.ndarray) -> bool:
         """Whether ``mask`` holds anywhere (every rank's answer)."""
         return bool(self.contact.comm.allreduce(bool(np.any(mask)), op=MPI.LOR))
-
-    def destroy(self) -> None:
-        """Free the work vector."""
-        self.move.destroy()
-
-
-def state_vector(physics: Any) -> Any:
-    """The full state's PETSc vector (the search's input)."""
-    return compat.function_vector(physics.state)

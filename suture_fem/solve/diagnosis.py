@@ -98,9 +98,9 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
                 "(docs/contact.md: Nothing tied)")
     if degree == 2:
         return ("; the cones' contact is carried furthest by mesh.degree = 1 (the paper scene to 4 N); at P2 the "
-                'trust region (solver.trust_region = "auto") carries one and four frictionless cones of the paper '
-                "scene to 4 N, at 2 and 11 times P1's Newton iterations (docs/contact.md: A trust region for the P2 "
-                "cones)")
+                'trust region (solver.trust_region = "auto") and the swapping pairs\' doubled penalty carry one and '
+                "four frictionless cones of the paper scene to 4 N, at 2 and 4 times P1's Newton iterations "
+                "(docs/contact.md: The multipliers that swap)")
     if effects.cone_interface == "sliding" and not walled:
         return ""  # the tissue's advice, below
     if effects.cone_interface == "sliding":  # its pure penalty's penetration reached the wall guard

@@ -115,9 +115,9 @@ def _stiffened(terms: Any, u_vec: Any) -> Iterator[None]:
     """
     kappa, multiplier = terms.kappa, terms.multiplier
     phi = terms.search(u_vec)["phi"]
-    trial = multiplier - kappa * phi
+    trial = multiplier - getattr(terms, "penalty", kappa) * phi  # the cones' penalty: kappa x each pair's boost
     terms.kappa = kappa * SETTLED_STIFFENING
-    terms.multiplier = np.where(trial > 0.0, trial + terms.kappa * phi, multiplier)
+    terms.multiplier = np.where(trial > 0.0, trial + getattr(terms, "penalty", terms.kappa) * phi, multiplier)
     try:
         yield
     finally:

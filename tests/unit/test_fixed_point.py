@@ -161,3 +161,26 @@ def test_an_augmented_lagrangians_multipliers_are_followed_by_chord_steps_and_a_
     assert fast.chords >= 2 and fast.solves < plain.solves and its < its_plain
     assert fast.looser == [0.0] * fast.solves  # no Coulomb law: every solve full, the first one too
     assert abs(fast.x - (F - law.multiplier[0]) / (K + law.KAPPA)) < 1e-15  # the answer is a full solve's
+
+
+def test_a_doubled_penalty_settles_multipliers_that_swap():
+    # Two pressed nodes whose tissue tilts unstably (stiffness -10 in the mode (1, -1), 10 in (1, 1)), held by
+    # the penalty kappa = 20: the method of multipliers moves the tilt's error by -10 / (-10 + 20) = -1 per update
+    stiffness, kappa, force = np.array([[0.0, 10.0], [10.0, 0.0]]), 20.0, np.ones(2)
+
+    def largest_gap(boosted: bool, updates: int = 60) -> tuple[float, np.ndarray]:
+        multiplier, boost, reversals = np.array([0.3, 0.9]), np.ones(2), fixed_point.Reversals(2)
+        for _ in range(updates):
+            penalty = kappa * boost
+            x = np.linalg.solve(stiffness + np.diag(penalty), force - multiplier)  # the solve under lambda
+            r = penalty * x  # p - lambda, p = lambda + kappa x (pressed)
+            multiplier = multiplier + r
+            if boosted:  # ConeContact.update's rule
+                swapped = reversals.of(r)
+                boost[swapped] = np.minimum(fixed_point.BOOST_MAX, 2.0 * boost[swapped])
+        return float(np.max(np.abs(x))), boost
+
+    assert largest_gap(False)[0] > 1e-3 and largest_gap(False, 600)[0] > 1e-3  # a 2-cycle: its gap never falls
+    gap, boost = largest_gap(True)
+    assert gap < 1e-12  # settled ...
+    assert np.all(boost > 1.0) and np.all(boost < fixed_point.BOOST_MAX)  # ... doubled until it stopped swapping

@@ -227,6 +227,7 @@ class _Obstacle:
     def __init__(self, move):
         self.comm = MPI.COMM_SELF
         self.pairs, self.kappa, self.touch_holds, self.bilateral = 1, KAPPA, True, False
+        self.penalty = np.full(1, KAPPA)
         self.weight, self.multiplier = np.ones(1), np.zeros(1)
         self.dofs, self.cone, self.cone_dofs = np.array([[0, 1]]), np.array([0]), [np.array([2])]
         self._layout = ConeLayout(self.dofs, self.cone, self.cone_dofs)

@@ -26,7 +26,8 @@ couple its dofs with its cone's axial dofs (through t_c): the matrix pattern is 
 The unilateral models default to an augmented Lagrangian (``effects.cone_contact_method``; Wriggers 2006, 6.3):
 p = <lambda - kappa phi>, the potential (<lambda - kappa phi>^2 - lambda^2) / (2 kappa), lambda frozen during a
 Newton solve and moved toward p between solves (:meth:`ConeContact.update`, Aitken-relaxed; chord steps where
-:func:`~.fixed_point.settle` allows) until every pressed node is within ``effects.contact_penetration_mm``.
+:func:`~.fixed_point.settle` allows) until every pressed node is within ``effects.contact_penetration_mm``; a
+pair whose update swaps has its kappa doubled (:data:`~.fixed_point.BOOST_MAX`; ``ConeContact.boost``).
 
 Searched too: the tissue's next layer of nodes (:mod:`.cone_pairs`; held off the cones with nothing tied, only
 measured with the thread tied: held, the paper scene's frictionless cones stopped at 3.67 N), and the unilateral
@@ -55,17 +56,13 @@ from suture_fem.physics.effects import cone_frame, cone_notes
 from suture_fem.physics.effects.cone_corners import CornerPass, chain
 from suture_fem.physics.effects.cone_pairs import WatchedLayer, cone_pairs
 from suture_fem.physics.effects.contact import cones_augmented, penalty_stiffness
-from suture_fem.physics.effects.fixed_point import Aitken, update_norms
+from suture_fem.physics.effects.fixed_point import BOOST_MAX, UZAWA_OMEGA_MAX, Aitken, Reversals, update_norms
 from suture_fem.physics.effects.friction import SlipBound
 from suture_fem.physics.effects.pattern import ConeLayout, widen
 from suture_fem.support import compat
 
 log = logging.getLogger("suture_fem")
 
-#: The largest Aitken factor of the multipliers' update: Uzawa's plain update (1) converges at a rate
-#: k / (k + kappa) where the tissue's local stiffness k exceeds kappa (0.96 per update measured at a
-#: single cone's apex); the factor extrapolates such a mode up to 1 / (1 - rate).
-UZAWA_OMEGA_MAX = 50.0
 #: A trial state with a tissue node deeper inside a cone than this fraction of its wall, or reached by a way
 #: going deeper (:meth:`ConeContact.deepest`), is outside the admissible domain: past the wall's mid-plane the
 #: nearest point is on its far side, and the penalty would push the node on through the wall. Below a half,
@@ -77,15 +74,13 @@ DEPTH_FRACTION = 0.4
 class ConeContact(SlipBound):
     """The cones' contact terms (see the module docstring).
 
-    Attributes:
-        pairs: the tissue's cone-contact nodes owned on this rank; nodes: V's local node a of each; dofs: (pairs, dim)
-        global dofs (u_r(a), u_z(a); 3-D u_x, u_y, u_z); position: (pairs, dim) reference positions (mm); X: (pairs,
-        2) their places (r, axial) (mm); cone: (pairs,) the cone of each; s0, phi0: (pairs,) the reference arc length
-        and distance (mm); weight: (pairs,) m^2; cone_dofs: per cone, the global axial dofs of its interface nodes
-        (every rank's); outlines: per cone, its outline; kappa (Pa/m); model; mu (0: no friction); slip: s (m);
-        bound: (pairs,) the frozen slip limit (Pa); surface: (pairs,) True on a cone's surface; track: (pairs,)
-        the track's tissue (the thread free in its track); near: (pairs,) the tissue's next layer (unilateral,
-        frictionless).
+    Attributes: pairs: the tissue's cone-contact nodes owned on this rank; nodes: V's local node a of each; dofs:
+        (pairs, dim) global dofs (u_r(a), u_z(a); 3-D u_x, u_y, u_z); position: (pairs, dim) reference positions
+        (mm); X: (pairs, 2) their places (r, axial) (mm); cone: the cone of each; s0, phi0: the reference arc length
+        and distance (mm); weight: m^2; cone_dofs: per cone, the global axial dofs of its interface nodes (every
+        rank's); outlines: per cone, its outline; kappa (Pa/m); boost: each pair's penalty / kappa; model; mu (0:
+        no friction); slip: s (m); bound: the frozen slip limit (Pa); surface: True on a cone's surface; track: the
+        track's tissue (the thread free in its track); near: the tissue's next layer (unilateral, frictionless).
     """
 
     def __init__(self, comm: Any, state: Any, pairs: dict[str, Any], kappa: float, model: str, mu: float,
@@ -127,7 +122,7 @@ class ConeContact(SlipBound):
             self.s0[sel], self.phi0[sel] = start.s, start.distance  # phi0: off a rounded corner, a few um
         self.phi0[~self.surface] = 0.0  # the track's and the next layer's start off the cone: the gap is the distance
         self.bound = np.zeros(self.pairs)
-        self.multiplier = np.zeros(self.pairs)  # the augmented Lagrangian's lambda (Pa; 0: the pure penalty)
+        self.multiplier, self.boost = np.zeros(self.pairs), np.ones(self.pairs)  # lambda (Pa); the penalty / kappa
         self._state = state
         self._found: tuple[np.ndarray, dict[str, np.ndarray]] | None = None  # the last search's (input, places)
         self._anchor = self.X.copy()  # where each node was, relative to its cone, at the trial states' start (mm)
@@ -227,13 +222,18 @@ class ConeContact(SlipBound):
 
     def _pressure(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(p, closed) per pair: p = lambda - kappa phi, clipped at 0 unless bilateral (Pa); closed: p > 0 (or all)."""
-        trial = self.multiplier - self.kappa * phi
+        trial = self.multiplier - self.penalty * phi
         if self.bilateral:
             closed = np.ones(self.pairs, dtype=bool)
         else:
             closed = trial >= 0.0 if self.touch_holds else trial > 0.0
         closed[self.near] = trial[self.near] > 0.0  # the next layer only ever pushes
         return np.where(closed, trial, 0.0), closed
+
+    @property
+    def penalty(self) -> np.ndarray:
+        """Each pair's penalty (Pa/m): kappa x its boost."""
+        return self.kappa * self.boost
 
     def pressure(self) -> np.ndarray:
         """The contact pressure per pair now (Pa; sliding: negative where it holds the tissue on)."""
@@ -260,6 +260,8 @@ class ConeContact(SlipBound):
         extra = (np.zeros(0),) * 3  # the corners' (rank 0's) residual, change and multipliers
         if worst > self.target:
             self.multiplier = np.maximum(old + self._uzawa.factor(r * self.weight) * r, 0.0)  # unilateral
+            swapped = self._reversals.of(r) & closed  # their penalty doubled (BOOST_MAX)
+            self.boost[swapped] = np.minimum(BOOST_MAX, 2.0 * self.boost[swapped])
             extra = corners.move(self._state, t_c) if corners else extra
         if self.mu == 0.0:  # what decides a chord step next (:func:`~.fixed_point.settle`; with Coulomb, its bound's)
             self.last_residual, self.last_change = update_norms(
@@ -271,7 +273,7 @@ class ConeContact(SlipBound):
     def start(self) -> None:
         """Forget the fixed points' histories (a new load step's solve)."""
         super().start()
-        self._uzawa = Aitken(self.comm, UZAWA_OMEGA_MAX)
+        self._uzawa, self._reversals = Aitken(self.comm, UZAWA_OMEGA_MAX), Reversals(self.pairs)
 
     def frozen(self) -> tuple[np.ndarray, ...]:
         """Copies of the Coulomb bound and the multipliers (the corners' last): a state's part, kept with it."""
@@ -286,7 +288,7 @@ class ConeContact(SlipBound):
     def reset(self) -> None:
         """At rest: no pressure, no slip bound, no multiplier."""
         self.bound[:] = 0.0
-        self.multiplier[:] = 0.0
+        self.multiplier[:], self.boost[:] = 0.0, 1.0
         if self.held:
             self.held.multiplier[:] = 0.0
 
@@ -298,7 +300,7 @@ class ConeContact(SlipBound):
         """The penalty's and (Coulomb) the frozen-bound friction's potential (J; collective)."""
         found = self.search(u_vec)
         p, _ = self._pressure(found["phi"])  # w (p^2 - lambda^2) / (2 kappa): its phi-derivative is -w p
-        value = 0.5 * self.weight * (p**2 - self.multiplier**2) / self.kappa
+        value = 0.5 * self.weight * (p**2 - self.multiplier**2) / self.penalty
         if self.mu > 0.0:
             x = np.abs(found["g"]) / self.slip
             value = value + self.weight * self.bound * self.slip * (x + np.log1p(np.exp(-2.0 * x)) - math.log(2.0))
@@ -327,7 +329,7 @@ class ConeContact(SlipBound):
         nn = n[:, :, None] * n[:, None, :]
         curvature = np.minimum(found["curvature"], 0.0) if self.convexified else found["curvature"]
         bend = (-self.weight * p * curvature)[:, None, None] * (np.eye(2)[None, :, :] - nn)
-        hess = (self.kappa * self.weight * closed)[:, None, None] * nn + bend
+        hess = (self.penalty * self.weight * closed)[:, None, None] * nn + bend
         if self.mu > 0.0:
             hess += (self.weight * self._law(found["g"])[1])[:, None, None] * T[:, :, None] * T[:, None, :]
         if "e_r" not in found:  # 2-D: the place is the position
@@ -340,14 +342,7 @@ class ConeContact(SlipBound):
         Node a receives dE/dx; the cone's axial dofs share -dE/dx_z equally (x moves by -t_c e_z).
         """
         grad = self._gradient(u_vec)
-        rows = [self.dofs.ravel()]
-        values = [cone_frame.gradient(grad, self.search(u_vec).get("e_r")).ravel()]
-        for c, dofs in enumerate(self.cone_dofs):
-            if len(dofs):
-                rows.append(dofs)
-                values.append(np.full(len(dofs), -float(np.sum(grad[self.cone == c, 1])) / len(dofs)))
-        b.setValues(np.concatenate(rows).astype(PETSc.IntType), np.concatenate(values),
-                    addv=PETSc.InsertMode.ADD_VALUES)
+        self._layout.add_gradient(b, cone_frame.gradient(grad, self.search(u_vec).get("e_r")), grad[:, 1])
         if self.held:
             self.held.add_residual(u_vec, self.search(u_vec)["t_c"], b)
         b.assemble()

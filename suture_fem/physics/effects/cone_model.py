@@ -66,7 +66,7 @@ class GapModel:
         return np.sum(self.n * dy, axis=1)
 
     def _trial(self, change: np.ndarray) -> np.ndarray:
-        return self.contact.multiplier - self.contact.kappa * (self.phi + change)
+        return self.contact.multiplier - self.contact.penalty * (self.phi + change)
 
     def pressed(self, change: np.ndarray) -> np.ndarray:
         """The open pairs that a step of gap change ``change`` presses."""
@@ -77,24 +77,18 @@ class GapModel:
         """Add the ``joined`` pairs' terms to the full Jacobian ``A`` and residual ``b`` (assembled; collective)."""
         contact = self.contact
         w = np.where(joined, contact.weight, 0.0)
-        hess = (contact.kappa * w)[:, None, None] * (self.n[:, :, None] * self.n[:, None, :])
+        hess = (contact.penalty * w)[:, None, None] * (self.n[:, :, None] * self.n[:, None, :])
         contact._layout.add(A, hess)
         A.assemble()
-        grad = -(w * (contact.multiplier - contact.kappa * self.phi))[:, None] * self.n
-        rows, values = [contact.dofs.ravel()], [grad.ravel()]
-        for c, dofs in enumerate(contact.cone_dofs):
-            if len(dofs):
-                rows.append(dofs)
-                values.append(np.full(len(dofs), -float(np.sum(grad[contact.cone == c, 1])) / len(dofs)))
-        b.setValues(np.concatenate(rows).astype(PETSc.IntType), np.concatenate(values),
-                    addv=PETSc.InsertMode.ADD_VALUES)
+        grad = -(w * (contact.multiplier - contact.penalty * self.phi))[:, None] * self.n
+        contact._layout.add_gradient(b, grad, grad[:, 1])
         b.assemble()
 
     def energy(self, change: np.ndarray) -> float:
         """The open pairs' terms at the gap change ``change``: sum w <lambda - kappa (phi + dphi)>^2 / (2 kappa), J."""
         contact = self.contact
         trial = np.maximum(self._trial(change), 0.0)
-        local = float(np.sum(np.where(self.open, 0.5 * contact.weight * trial**2 / contact.kappa, 0.0)))
+        local = float(np.sum(np.where(self.open, 0.5 * contact.weight * trial**2 / contact.penalty, 0.0)))
         return float(contact.comm.allreduce(local, op=MPI.SUM))
 
     def any(self, mask: np.ndarray) -> bool:

@@ -68,4 +68,8 @@ def status(contact: Any, u_vec: Any) -> dict[str, Any]:
     deepest = max(float(np.max(inside[near], initial=0.0)), contact.watched.depth(u_vec, found["t_c"]))
     out["next_layer_pressed_nodes"] = near_n
     out["next_layer_penetration_max_mm"] = float(contact.comm.allreduce(deepest, op=MPI.MAX)) / regions.MM
+    boosted = int(contact.comm.allreduce(int(np.count_nonzero(contact.boost > 1.0))))
+    if boosted:  # pairs whose multipliers swapped, their penalty doubled (ConeContact.update)
+        out["penalty_boosted_nodes"] = boosted
+        out["penalty_boost_max"] = float(contact.comm.allreduce(float(np.max(contact.boost, initial=1.0)), op=MPI.MAX))
     return {**out, **(contact.corners.status(u_vec, found["t_c"]) if contact.corners else {})}

@@ -42,6 +42,16 @@ CHORD_CONTRACTION = 0.5
 CHORD_BOUND_CHANGE = 0.5
 #: Aitken's relaxation factor is kept in this range (a factor above 1 extrapolates).
 OMEGA_MIN, OMEGA_MAX = 0.01, 2.0
+#: The largest Aitken factor of the cones' multipliers' update: Uzawa's plain update (1) converges at a rate
+#: k / (k + kappa) where the tissue's local stiffness k exceeds kappa (0.96 per update measured at a
+#: single cone's apex); the factor extrapolates such a mode up to 1 / (1 - rate).
+UZAWA_OMEGA_MAX = 50.0
+#: An update that reverses its entry's sign and keeps more than this fraction of its size swaps (:class:`Reversals`).
+SWAP_CONTRACTION = 0.5
+#: A pressed pair whose multiplier's update swaps (:class:`Reversals`) has its penalty doubled, up to
+#: BOOST_MAX x kappa: the update moves the pair's error by k / (k + kappa), which is -1 or below where the
+#: tissue's own stiffness k in a mode is -kappa / 2 or softer (docs/contact.md, "The multipliers that swap").
+BOOST_MAX = 16.0
 
 
 class Aitken:
@@ -66,6 +76,24 @@ class Aitken:
                 self._omega = float(np.clip(-self._omega * num / den, OMEGA_MIN, self.largest))
         self._last = r
         return self._omega
+
+
+class Reversals:
+    """Which entries of a fixed-point update swap: reverse the sign of their last update without halving it.
+
+    r_k r_{k-1} < 0 and |r_k| > :data:`SWAP_CONTRACTION` |r_{k-1}|: an entry that oscillates and does not settle
+    (one that reverses while it shrinks fast converges).
+    """
+
+    def __init__(self, size: int):
+        """No last update yet: nothing swaps."""
+        self._last = np.zeros(size)
+
+    def of(self, r: np.ndarray) -> np.ndarray:
+        """The entries of this update ``r`` (this rank's) that swap."""
+        out = (r * self._last < 0.0) & (np.abs(r) > SWAP_CONTRACTION * np.abs(self._last))
+        self._last = r.copy()
+        return out
 
 
 def update_norms(comm: Any, forces: np.ndarray, moved: np.ndarray, now: np.ndarray) -> tuple[float, float]:

@@ -60,6 +60,7 @@ class ConeLayout:
 
     def __init__(self, dofs: np.ndarray, cone: np.ndarray, cone_dofs: list[np.ndarray]):
         """``dofs``: (pairs, dim) global dofs; ``cone``: each pair's cone; ``cone_dofs``: per cone, its axial dofs."""
+        self.dofs, self.cone, self.cone_dofs = dofs, cone, cone_dofs
         self.parts = []  # per cone: (its pairs, its axial dofs)
         rowmap, lengths, cols = [], [], []
         d = dofs.shape[1]
@@ -94,6 +95,19 @@ class ConeLayout:
                 row = np.concatenate([couple.ravel(), np.full(len(b), float(np.sum(H[:, 1, 1])) * alpha * alpha)])
                 out.append(np.tile(row, len(b)))
         return np.concatenate(out or [np.zeros(0)])
+
+    def add_gradient(self, b: Any, nodal: np.ndarray, axial: np.ndarray) -> None:
+        """Add a gradient to b (not assembled here): each pair's ``nodal`` values ((pairs, dim)) at its dofs.
+
+        Each cone's axial dofs get -alpha x the sum of its pairs' ``axial`` components (the place moves by -t_c e_z).
+        """
+        rows, values = [self.dofs.ravel()], [nodal.ravel()]
+        for c, dofs in enumerate(self.cone_dofs):
+            if len(dofs):
+                rows.append(dofs)
+                values.append(np.full(len(dofs), -float(np.sum(axial[self.cone == c])) / len(dofs)))
+        b.setValues(np.concatenate(rows).astype(PETSc.IntType), np.concatenate(values),
+                    addv=PETSc.InsertMode.ADD_VALUES)
 
     def add(self, A: Any, hess: np.ndarray) -> None:
         """Add the entries of ``hess`` to A (not assembled here)."""

@@ -27,7 +27,7 @@ The unilateral models default to an augmented Lagrangian (``effects.cone_contact
 p = <lambda - kappa phi>, the potential (<lambda - kappa phi>^2 - lambda^2) / (2 kappa), lambda frozen during a
 Newton solve and moved toward p between solves (:meth:`ConeContact.update`, Aitken-relaxed; chord steps where
 :func:`~.fixed_point.settle` allows) until every pressed node is within ``effects.contact_penetration_mm``; a
-pair whose update swaps has its kappa doubled (:data:`~.fixed_point.BOOST_MAX`; ``ConeContact.boost``).
+P2 pair whose update swaps has its kappa doubled (:data:`~.fixed_point.BOOST_MAX`; ``ConeContact.boost``).
 
 Searched too: the tissue's next layer of nodes (:mod:`.cone_pairs`; held off the cones with nothing tied, only
 measured with the thread tied: held, the paper scene's frictionless cones stopped at 3.67 N), and the unilateral
@@ -260,8 +260,9 @@ class ConeContact(SlipBound):
         extra = (np.zeros(0),) * 3  # the corners' (rank 0's) residual, change and multipliers
         if worst > self.target:
             self.multiplier = np.maximum(old + self._uzawa.factor(r * self.weight) * r, 0.0)  # unilateral
-            swapped = self._reversals.of(r) & closed  # their penalty doubled (BOOST_MAX)
-            self.boost[swapped] = np.minimum(BOOST_MAX, 2.0 * self.boost[swapped])
+            if self.convexified:  # P2 (at P1 it broke a hard case: docs/contact.md, "The multipliers that swap")
+                swapped = self._reversals.of(r) & closed  # their penalty doubled (BOOST_MAX)
+                self.boost[swapped] = np.minimum(BOOST_MAX, 2.0 * self.boost[swapped])
             extra = corners.move(self._state, t_c) if corners else extra
         if self.mu == 0.0:  # what decides a chord step next (:func:`~.fixed_point.settle`; with Coulomb, its bound's)
             self.last_residual, self.last_change = update_norms(

@@ -224,8 +224,7 @@ class TrustRegion:
 
     def _centre(self, x: Any) -> None:
         """The open pairs' model (where kept) centred on the iterate ``x``."""
-        if self.gaps is not None:
-            self.newton.reduction.expand(x)
+        if self.gaps is not None:  # the state is x: its residual was just assembled there
             self.gaps.at(compat.function_vector(self.newton.physics.state))
 
     def _step(self, w: _Work, g: Any) -> float:
@@ -240,13 +239,15 @@ class TrustRegion:
             return norm
         lam = w.lam0 if w.norm0 <= self.delta else w.lam
         joined = np.zeros(self.gaps.contact.pairs, dtype=bool)
+        change = self.gaps.change(w.p)
         for _ in range(JOINS):
-            pressed = self.gaps.pressed(self.gaps.change(w.p))
+            pressed = self.gaps.pressed(change)
             if not self.gaps.any(pressed & ~joined):
                 break
             joined |= pressed
             norm = self._joined_step(w, g, joined, lam)
-        w.pressing = self.gaps.energy(self.gaps.change(w.p))
+            change = self.gaps.change(w.p)
+        w.pressing = self.gaps.energy(change)
         return norm
 
     def _joined_step(self, w: _Work, g: Any, joined: np.ndarray, lam: float) -> float:

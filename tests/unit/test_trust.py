@@ -15,6 +15,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from suture_fem.outputs.results import SolverRecord
+from suture_fem.physics.effects.cone_contact import ConeContact
 from suture_fem.physics.effects.cone_model import GapModel
 from suture_fem.physics.effects.pattern import ConeLayout
 from suture_fem.solve import trust
@@ -222,12 +223,18 @@ def _obstacle_hessian(v: np.ndarray) -> np.ndarray:
 
 
 class _Obstacle:
-    """What GapModel uses of a ConeContact, for the node and plane above (one pair, one cone, one process)."""
+    """What GapModel uses of a ConeContact, for the node and plane above (one pair, one cone, one process).
+
+    Its pressure law and its split of the scattered values are ConeContact's own.
+    """
+
+    _pressure = ConeContact._pressure
+    moves = ConeContact.moves
 
     def __init__(self, move):
         self.comm = MPI.COMM_SELF
         self.pairs, self.kappa, self.touch_holds, self.bilateral = 1, KAPPA, True, False
-        self.penalty = np.full(1, KAPPA)
+        self.penalty, self.near = np.full(1, KAPPA), np.zeros(1, dtype=bool)
         self.weight, self.multiplier = np.ones(1), np.zeros(1)
         self.dofs, self.cone, self.cone_dofs = np.array([[0, 1]]), np.array([0]), [np.array([2])]
         self._layout = ConeLayout(self.dofs, self.cone, self.cone_dofs)
@@ -238,10 +245,6 @@ class _Obstacle:
     def search(self, state) -> dict:
         v = np.asarray(state)
         return {"phi": np.array([GAP + v[1] - v[2]]), "n": np.array([[0.0, 1.0]])}
-
-    def _pressure(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        trial = self.multiplier - self.kappa * phi
-        return np.where(trial >= 0.0, trial, 0.0), trial >= 0.0
 
 
 def _obstacle_solve(with_gaps: bool) -> tuple[trust.TrustRegion, _Fake, int]:

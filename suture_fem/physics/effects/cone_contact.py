@@ -101,6 +101,7 @@ class ConeContact(SlipBound):
         self.touch_holds, self.depth_limit = touch_holds, DEPTH_FRACTION * float(wall_m)
         self._reach = 0.5 * float(wall_m) - self.depth_limit  # a shorter move from the limit cannot pass the mid-plane
         self.convexified = convexified and not self.bilateral
+        self.boosting = self.convexified  # P2: swapping pairs' penalty doubled (:meth:`update`; P1 broke a case)
         self.mu, self.slip = (float(mu) if model == "coulomb" else 0.0), float(slip_m)
         self.nodes, self.dofs, self.position = pairs["nodes"], pairs["dofs"], pairs["X"]
         self.X = cone_frame.place(self.position)[0]
@@ -170,15 +171,10 @@ class ConeContact(SlipBound):
         values = self._local.getArray(readonly=True)
         if self._found is not None and np.array_equal(values, self._found[0]):  # the same state: the same places
             return self._found[1]
-        dim = self.dofs.shape[1]
-        u = values[: dim * self.pairs].reshape(self.pairs, dim)
-        at, t_c = dim * self.pairs, []
-        for dofs in self.cone_dofs:
-            t_c.append(float(np.mean(values[at: at + len(dofs)])) if len(dofs) else 0.0)
-            at += len(dofs)
-        y, e_r = cone_frame.moved(self.position, u, np.asarray(t_c)[self.cone], regions.MM)  # 3-D: y = (r, axial)
+        u, t_c = self.moves(values)
+        y, e_r = cone_frame.moved(self.position, u, t_c[self.cone], regions.MM)  # 3-D: y = (r, axial)
         out = {"phi": np.zeros(self.pairs), "g": np.zeros(self.pairs), "n": np.zeros((self.pairs, 2)),
-               "T": np.zeros((self.pairs, 2)), "curvature": np.zeros(self.pairs), "t_c": np.asarray(t_c), "y": y,
+               "T": np.zeros((self.pairs, 2)), "curvature": np.zeros(self.pairs), "t_c": t_c, "y": y,
                **({} if e_r is None else {"e_r": e_r})}  # 3-D: each node's unit vector off the axis
         for sel, outline in zip(self._of_cone, self.outlines):
             proj = project(y[sel], outline)
@@ -190,6 +186,15 @@ class ConeContact(SlipBound):
             array.flags.writeable = False  # kept for the next call at the same state
         self._found = (values.copy(), out)
         return out
+
+    def moves(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """From :meth:`search`'s scattered ``values``: each pair's u (pairs, dim) and each cone's t_c."""
+        dim = self.dofs.shape[1]
+        at, t_c = dim * self.pairs, []
+        for dofs in self.cone_dofs:
+            t_c.append(float(np.mean(values[at: at + len(dofs)])) if len(dofs) else 0.0)
+            at += len(dofs)
+        return values[: dim * self.pairs].reshape(self.pairs, dim), np.asarray(t_c)
 
     def anchor(self) -> None:
         """Take the state now as where the next trial states start from: a Newton iterate, a step's last state."""
@@ -260,7 +265,7 @@ class ConeContact(SlipBound):
         extra = (np.zeros(0),) * 3  # the corners' (rank 0's) residual, change and multipliers
         if worst > self.target:
             self.multiplier = np.maximum(old + self._uzawa.factor(r * self.weight) * r, 0.0)  # unilateral
-            if self.convexified:  # P2 (at P1 it broke a hard case: docs/contact.md, "The multipliers that swap")
+            if self.boosting:  # docs/contact.md, "The multipliers that swap"
                 swapped = self._reversals.of(r) & closed  # their penalty doubled (BOOST_MAX)
                 self.boost[swapped] = np.minimum(BOOST_MAX, 2.0 * self.boost[swapped])
             extra = corners.move(self._state, t_c) if corners else extra

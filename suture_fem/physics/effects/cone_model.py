@@ -56,22 +56,14 @@ class GapModel:
         self.reduction.T.mult(p, self.move)
         contact._scatter.scatter(self.move, contact._local, addv=PETSc.InsertMode.INSERT,
                                  mode=PETSc.ScatterMode.FORWARD)
-        values = contact._local.getArray(readonly=True)
-        dy = values[: 2 * contact.pairs].reshape(contact.pairs, 2).copy()
-        at = 2 * contact.pairs
-        for c, dofs in enumerate(contact.cone_dofs):
-            if len(dofs):
-                dy[contact.cone == c, 1] -= float(np.mean(values[at: at + len(dofs)]))
-            at += len(dofs)
+        du, dt_c = contact.moves(contact._local.getArray(readonly=True))
+        dy = du.copy()
+        dy[:, 1] -= dt_c[contact.cone]  # relative to the cone, which moves axially by t_c
         return np.sum(self.n * dy, axis=1)
-
-    def _trial(self, change: np.ndarray) -> np.ndarray:
-        return self.contact.multiplier - self.contact.penalty * (self.phi + change)
 
     def pressed(self, change: np.ndarray) -> np.ndarray:
         """The open pairs that a step of gap change ``change`` presses."""
-        trial = self._trial(change)
-        return self.open & ((trial >= 0.0) if self.contact.touch_holds else (trial > 0.0))
+        return self.open & self.contact._pressure(self.phi + change)[1]
 
     def add(self, joined: np.ndarray, A: Any, b: Any) -> None:
         """Add the ``joined`` pairs' terms to the full Jacobian ``A`` and residual ``b`` (assembled; collective)."""
@@ -80,15 +72,15 @@ class GapModel:
         hess = (contact.penalty * w)[:, None, None] * (self.n[:, :, None] * self.n[:, None, :])
         contact._layout.add(A, hess)
         A.assemble()
-        grad = -(w * (contact.multiplier - contact.penalty * self.phi))[:, None] * self.n
+        grad = -(w * (contact.multiplier - contact.penalty * self.phi))[:, None] * self.n  # p unclipped: open
         contact._layout.add_gradient(b, grad, grad[:, 1])
         b.assemble()
 
     def energy(self, change: np.ndarray) -> float:
         """The open pairs' terms at the gap change ``change``: sum w <lambda - kappa (phi + dphi)>^2 / (2 kappa), J."""
         contact = self.contact
-        trial = np.maximum(self._trial(change), 0.0)
-        local = float(np.sum(np.where(self.open, 0.5 * contact.weight * trial**2 / contact.penalty, 0.0)))
+        p = contact._pressure(self.phi + change)[0]
+        local = float(np.sum(np.where(self.open, 0.5 * contact.weight * p**2 / contact.penalty, 0.0)))
         return float(contact.comm.allreduce(local, op=MPI.SUM))
 
     def any(self, mask: np.ndarray) -> bool:

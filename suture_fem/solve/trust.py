@@ -16,7 +16,14 @@ is kept when the energy falls by at least RHO_KEEP of what the quadratic model g
 trial state outside the admissible domain counts as a rise); delta then grows to GROW x |p| after a
 well-predicted step that the radius held, and shrinks to SHRINK x |p| after a rejected one. Below the
 energy's rounding (|g| < FULL_STEP_RESIDUAL x force, or a predicted fall below 1e-11 of the energy) a step
-is kept where it lowers |g|. The solve ends at the Newton solve's own residual test. Where the cones are
+is kept where it lowers |g|, and a refused one takes the residual's round-off floor at the iterate (the
+Newton solve's is taken at the solve's start, 0 at rest: a first step from rest failed at |g| 1.15e-10 N
+against an atol of 1e-10 N); the next solve starts from the radius before those refusals (it had started
+from 1e-14 m and spent 12 iterations growing it). The solve ends at the Newton solve's own residual test.
+Where lam0 > 0 and |p| lies inside the radius, lam0's tenfold rung has overshifted the step (a third of the
+P2 cones' iterations crawled so, a few um each): it is completed along the negative curvature
+(:mod:`~suture_fem.solve.curvature`), and where that completion is refused the step as it was is tried
+next. Where the cones are
 unilateral (2-D) the model also keeps each open pair's penalty on its linearised gap, and a step that presses
 open pairs is solved again with them joined (:mod:`~suture_fem.physics.effects.cone_model`): without them the
 trust region refused every step that pressed a node lying 0.3 um off its cone and crawled toward it.
@@ -41,11 +48,11 @@ from typing import Any
 
 import numpy as np
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from suture_fem.physics.effects.cone_model import GapModel
-from suture_fem.solve import inertia, jacobian
+from suture_fem.solve import curvature, inertia, jacobian
 from suture_fem.solve.stopping import FULL_STEP_RESIDUAL, force_scale
+from suture_fem.solve.trust_work import Work
 from suture_fem.support import compat
 
 log = logging.getLogger("suture_fem")
@@ -121,10 +128,11 @@ class TrustRegion:
         newton.stops.loose = loose
         newton.reduction.restrict(compat.function_vector(newton.physics.state), newton.x)
         newton.last_violation = None
-        work = _Work(newton.x)
+        work = Work(newton.x)
         try:
             with newton.memo.open():
                 ok, its, reason = self._iterate(work, loose)
+            self.delta = max(self.delta, work.carry)  # the next solve: the radius before the rounding's refusals
         finally:
             work.destroy()
             newton.snes.getKSP().setOperators(newton.A, newton.A)
@@ -140,7 +148,7 @@ class TrustRegion:
         self.record["converged"] += int(ok)
         return ok, its, reason
 
-    def _iterate(self, w: _Work, loose: float) -> tuple[bool, int, str]:
+    def _iterate(self, w: Work, loose: float) -> tuple[bool, int, str]:
         """The iterations from ``newton.x`` (collective); x is left at the last kept iterate."""
         newton = self.newton
         x, g = newton.x, newton.b
@@ -171,10 +179,14 @@ class TrustRegion:
             w.trial.waxpy(1.0, w.p, x)
             ft = newton._objective(None, w.trial)
             its += 1
-            keep = _kept(newton, w, f, ft, predicted, gnorm < FULL_STEP_RESIDUAL * force, gnorm)
-            log.debug("trust region %d: |g| %.3e, lam %.1e, |p| %.3e (radius %.2e), energy %+.3e of %+.3e predicted%s",
-                      its, gnorm, w.lam if norm < w.norm0 else w.lam0, norm, self.delta, f - ft, predicted,
-                      "" if keep else ", refused")
+            small = gnorm < FULL_STEP_RESIDUAL * force
+            keep = _kept(newton, w, f, ft, predicted, small, gnorm)
+            log.debug("trust region %d: |g| %.3e, lam0 %.1e, |p| %.3e (radius %.2e, %d joins, curvature %.1e), "
+                      "energy %+.3e of %+.3e predicted%s", its, gnorm, w.lam0, norm, self.delta, w.joins, w.theta,
+                      f - ft, predicted, "" if keep else ", refused")
+            rounding = small or abs(predicted) < 1e-11 * abs(f)
+            if not rounding:
+                w.carry = self.delta
             if keep:
                 ratio = (f - ft) / predicted if predicted > 0 else 1.0
                 w.trial.copy(x)
@@ -185,9 +197,14 @@ class TrustRegion:
                 fresh = True
                 if ratio > RHO_GOOD and norm > 0.45 * self.delta:
                     self.delta = max(self.delta, GROW * norm)
-            else:
-                self.delta = SHRINK * norm
+            else:  # refused; where the step had been completed along z (norm > base), next the step before that
+                self.delta = max(SHRINK * norm, w.base) if norm > w.base else SHRINK * norm
                 newton.reduction.expand(x)
+                if rounding:  # refused at the energy's rounding: the residual's own floor here, not at the start
+                    newton.floor = max(newton.floor, newton.round_off_floor(x))
+                    atol = max(newton.absolute_tolerance(), loose)
+                    if gnorm <= atol:
+                        return True, its, "CONVERGED_FNORM_ABS"
                 if self.delta < MIN_RADIUS:
                     return False, its, "DIVERGED_TR_DELTA"
         return False, its, "DIVERGED_MAX_IT"
@@ -202,12 +219,12 @@ class TrustRegion:
         newton.A_full.ptap(newton.reduction.T, newton.A)
         newton.timings.assembly += time.perf_counter() - t0
 
-    def _factorise(self, w: _Work, lam: float) -> bool:
+    def _factorise(self, w: Work, lam: float) -> bool:
         """Factorise A + lam D into the KSP; whether it has no negative pivot (a failed one counts as having)."""
         self.record["factorisations"] += 1
         return inertia.shifted_definite(self.newton.snes.getKSP(), w.M, w.diag, w.scale, lam)
 
-    def _lowest_shift(self, w: _Work) -> float:
+    def _lowest_shift(self, w: Work) -> float:
         """lam0: the smallest of 0 and :data:`SHIFTS` whose factorisation has no negative pivot (left in the KSP).
 
         :func:`~suture_fem.solve.inertia.smallest_shift` on this ladder, from one below the last Jacobian's.
@@ -227,30 +244,37 @@ class TrustRegion:
         if self.gaps is not None:  # the state is x: its residual was just assembled there
             self.gaps.at(compat.function_vector(self.newton.physics.state))
 
-    def _step(self, w: _Work, g: Any) -> float:
+    def _step(self, w: Work, g: Any) -> float:
         """The model's step into ``w.p`` with |p| <= delta; returns |p|. ``w.pressing``: the open pairs' model energy.
 
         The expansion's step p(lam) (:meth:`_shifted_step`); where that presses open pairs, the step of the model
         with them joined (:meth:`_joined_step`).
         """
-        w.pressing = 0.0
+        w.pressing, w.joins, w.theta = 0.0, 0, 0.0
         norm = self._shifted_step(w, g)
-        if self.gaps is None:
-            return norm
-        lam = w.lam0 if w.norm0 <= self.delta else w.lam
-        joined = np.zeros(self.gaps.contact.pairs, dtype=bool)
-        change = self.gaps.change(w.p)
-        for _ in range(JOINS):
-            pressed = self.gaps.pressed(change)
-            if not self.gaps.any(pressed & ~joined):
-                break
-            joined |= pressed
-            norm = self._joined_step(w, g, joined, lam)
+        interior = w.norm0 <= self.delta
+        if self.gaps is not None:
+            lam = w.lam0 if interior else w.lam
+            joined = np.zeros(self.gaps.contact.pairs, dtype=bool)
             change = self.gaps.change(w.p)
-        w.pressing = self.gaps.energy(change)
+            for _ in range(JOINS):
+                pressed = self.gaps.pressed(change)
+                if not self.gaps.any(pressed & ~joined):
+                    break
+                joined |= pressed
+                w.joins += 1
+                norm = self._joined_step(w, g, joined, lam)
+                change = self.gaps.change(w.p)
+        w.base = norm
+        if interior and w.lam0 > 0.0:  # overshifted: on along the negative curvature
+            extra = (lambda p: 0.0) if self.gaps is None else (lambda p: self.gaps.energy(self.gaps.change(p)))
+            norm, w.theta = curvature.to_boundary(self.newton.snes.getKSP(), self.newton.A, w.scale, g, w.p,
+                                                  self.delta, extra)
+        if self.gaps is not None:
+            w.pressing = self.gaps.energy(self.gaps.change(w.p))
         return norm
 
-    def _joined_step(self, w: _Work, g: Any, joined: np.ndarray, lam: float) -> float:
+    def _joined_step(self, w: Work, g: Any, joined: np.ndarray, lam: float) -> float:
         """The step of the model with the ``joined`` open pairs' terms, shifted by ``lam`` and cut to the radius."""
         newton = self.newton
         w.joined(newton)
@@ -270,7 +294,7 @@ class TrustRegion:
             norm = self.delta
         return norm
 
-    def _shifted_step(self, w: _Work, g: Any) -> float:
+    def _shifted_step(self, w: Work, g: Any) -> float:
         """The step p(lam) into ``w.p`` with |p| <= delta (lam >= lam0); returns |p|."""
         if w.norm0 <= self.delta:
             w.p0.copy(w.p)
@@ -309,53 +333,6 @@ class _NoShift(RuntimeError):
     """No shift up to LAST_SHIFT |diag A| removed the Jacobian's negative pivots."""
 
 
-class _Work:
-    """The vectors and the shifted matrix of one trust-region solve."""
-
-    def __init__(self, x: Any):
-        self.trial, self.p, self.p0, self.Ap = (x.duplicate() for _ in range(4))
-        self.M: Any = None
-        self.diag: Any = None
-        self.scale: Any = None
-        self.lam0 = self.lam = 0.0
-        self.k0: int | None = None  # lam0's place on SHIFTS (None: 0)
-        self.norm0 = 0.0
-        self.pressing = 0.0  # the open pairs' model energy at the step (J)
-        self.F: Any = None  # the full Jacobian with joined pairs, its reduction K (made by ptap), their residuals b, g
-        self.K: Any = None
-        self.b: Any = None
-        self.g = x.duplicate()
-
-    def joined(self, newton: Any) -> None:
-        """F = the iterate's full Jacobian, b = 0: ready for the joined pairs' terms."""
-        if self.F is None:
-            self.F = newton.A_full.duplicate(copy=True)
-            self.b = newton.b_full.duplicate()
-        else:
-            newton.A_full.copy(self.F, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self.b.set(0.0)
-
-    def matrix(self, A: Any) -> None:
-        """M = A's copy (to be shifted), its diagonal and |diag A|."""
-        if self.M is None:
-            self.M = A.duplicate(copy=True)
-        else:
-            A.copy(self.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        for v in (self.diag, self.scale):
-            if v is not None:
-                v.destroy()
-        self.diag = A.getDiagonal()
-        self.scale = self.diag.copy()
-        self.scale.abs()
-
-    def destroy(self) -> None:
-        """Free every PETSc object."""
-        for obj in (self.trial, self.p, self.p0, self.Ap, self.M, self.diag, self.scale, self.F, self.K, self.b,
-                    self.g):
-            if obj is not None:
-                obj.destroy()
-
-
 def _solve(ksp: Any, g: Any, p: Any) -> float:
     """The step -K^-1 g into p, K the KSP's factorisation; returns |p|."""
     g.scale(-1.0)
@@ -366,7 +343,7 @@ def _solve(ksp: Any, g: Any, p: Any) -> float:
     return p.norm()
 
 
-def _kept(newton: Any, w: _Work, f: float, ft: float, predicted: float, small: bool, gnorm: float) -> bool:
+def _kept(newton: Any, w: Work, f: float, ft: float, predicted: float, small: bool, gnorm: float) -> bool:
     """Whether the trial state is kept: the energy's fall against the prediction, or |g| below its rounding.
 
     ``ft``: the trial's energy, just evaluated (the memo then holds its admissibility).

@@ -282,3 +282,26 @@ def test_the_gap_model_s_energy_is_the_pair_s_penalty_on_the_linearised_gap():
         v = np.array(move)
         assert gaps.energy(change) == pytest.approx(_obstacle_energy(v) - 0.5 * v @ v - FORCE * v[1], abs=1e-12)
         assert gaps.pressed(change).tolist() == [GAP + change[0] <= 0.0]
+
+
+def test_a_solve_that_meets_the_residual_s_rounding_ends_at_its_floor_there():
+    """The residual carries a rounding of up to 1e-9 that no step removes (drawn from the state's bits), the floor
+    eps ||A diag|x| || is modelled as 1e-8 |x| (0 at rest, where the solve starts: the first step of a ramp).
+    Its floor at the start, 0, is below that rounding; at the solution, 1e-8, above it. Refusals at the rounding
+    used to shrink the radius until the solve failed; the floor is now taken where they occur."""
+    _, minimum = _saddle_and_minimum()
+    fake = _Fake((0.0, 0.0))
+
+    def rounded(v: np.ndarray) -> np.ndarray:
+        digits = np.random.default_rng(abs(hash(v.tobytes()))).uniform(-1.0, 1.0, 2)  # the same at the same state
+        return gradient(v) + 1e-9 * digits
+
+    fake.gradient = rounded
+    fake.round_off_floor = lambda x: 1e-8 * x.norm()
+    fake.absolute_tolerance = lambda: max(1e-12, fake.floor)
+    region = trust.TrustRegion(fake)
+    ok, its, reason = region.solve()
+    assert ok and reason == "CONVERGED_FNORM_ABS"
+    assert fake.x.getArray(readonly=True)[0] == pytest.approx(minimum, abs=1e-8)
+    assert fake.floor == pytest.approx(1e-8 * abs(minimum), rel=1e-6)  # taken at the solution, not at rest
+    assert region.delta > 1e-6  # the next solve starts from the radius before the rounding's refusals

@@ -1,0 +1,57 @@
+"""The vectors and the shifted matrices of one trust-region solve (:mod:`suture_fem.solve.trust`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from petsc4py import PETSc
+
+
+class Work:
+    """The vectors and the shifted matrix of one trust-region solve."""
+
+    def __init__(self, x: Any):
+        self.trial, self.p, self.p0, self.Ap = (x.duplicate() for _ in range(4))
+        self.M: Any = None
+        self.diag: Any = None
+        self.scale: Any = None
+        self.lam0 = self.lam = 0.0
+        self.carry = 0.0  # the radius at the last step above the energy's rounding
+        self.joins, self.theta = 0, 0.0  # the last step's joined solves and its negative curvature (0: none)
+        self.base = 0.0  # the last step's |p| before its completion along z
+        self.k0: int | None = None  # lam0's place on SHIFTS (None: 0)
+        self.norm0 = 0.0
+        self.pressing = 0.0  # the open pairs' model energy at the step (J)
+        self.F: Any = None  # the full Jacobian with joined pairs, its reduction K (made by ptap), their residuals b, g
+        self.K: Any = None
+        self.b: Any = None
+        self.g = x.duplicate()
+
+    def joined(self, newton: Any) -> None:
+        """F = the iterate's full Jacobian, b = 0: ready for the joined pairs' terms."""
+        if self.F is None:
+            self.F = newton.A_full.duplicate(copy=True)
+            self.b = newton.b_full.duplicate()
+        else:
+            newton.A_full.copy(self.F, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.b.set(0.0)
+
+    def matrix(self, A: Any) -> None:
+        """M = A's copy (to be shifted), its diagonal and |diag A|."""
+        if self.M is None:
+            self.M = A.duplicate(copy=True)
+        else:
+            A.copy(self.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        for v in (self.diag, self.scale):
+            if v is not None:
+                v.destroy()
+        self.diag = A.getDiagonal()
+        self.scale = self.diag.copy()
+        self.scale.abs()
+
+    def destroy(self) -> None:
+        """Free every PETSc object."""
+        for obj in (self.trial, self.p, self.p0, self.Ap, self.M, self.diag, self.scale, self.F, self.K, self.b,
+                    self.g):
+            if obj is not None:
+                obj.destroy()

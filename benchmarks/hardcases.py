@@ -6,6 +6,7 @@ against the bulk modulus for the plain and the mixed formulation. Fine-mesh and 
 slow (the whole matrix takes tens of minutes on 2 cores).
 
     .venv/bin/python benchmarks/hardcases.py [--only "K x1000" ...] [--timeout 3600] [--out benchmarks/out/hardcases]
+        [--set mesh.degree=2 --out benchmarks/out/hardcases_p2]   (a key for every case, after the case's own)
 
 With --only, the rows of the other cases are kept from the existing JSON, so the table stays whole.
 """
@@ -30,6 +31,8 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", default=None, help="run the cases whose name starts with one of these")
     ap.add_argument("--timeout", type=float, default=3600.0, help="seconds before a case counts as a hang")
     ap.add_argument("--out", default=str(ROOT / "benchmarks/out/hardcases"), help="output path without suffix")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a scene key for every case, after the case's own (e.g. mesh.degree=2; use another --out)")
     args = ap.parse_args()
     cases = [c for c in matrix() if args.only is None or any(c.name.startswith(p) for p in args.only)]
     out = Path(args.out)
@@ -43,7 +46,7 @@ def main() -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         for i, case in enumerate(cases):
-            row = run_case(case.name, case.overrides, Path(tmp) / f"case{i}", timeout_s=args.timeout)
+            row = run_case(case.name, (*case.overrides, *args.set), Path(tmp) / f"case{i}", timeout_s=args.timeout)
             row.update(group=case.group, note=case.note)
             kept[case.name] = row
             print(f"[{i + 1}/{len(cases)}] {case.name}: {row['outcome']} {row.get('cause') or ''} "

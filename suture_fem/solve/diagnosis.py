@@ -99,8 +99,8 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
     if degree == 2:
         return ("; the cones' contact is carried furthest by mesh.degree = 1 (the paper scene to 4 N); at P2 the "
                 'trust region (solver.trust_region = "auto") and the swapping pairs\' doubled penalty carry one and '
-                "four frictionless cones of the paper scene to 4 N, at 1.7 and 4.6 times P1's Newton iterations "
-                "(docs/contact.md: The multipliers that swap)")
+                "four frictionless cones of the paper scene to 4 N, at 1.7 and 3.8 times P1's Newton iterations "
+                "(docs/contact.md: The trust region's steps along negative curvature)")
     if effects.cone_interface == "sliding" and not walled:
         return ""  # the tissue's advice, below
     if effects.cone_interface == "sliding":  # its pure penalty's penetration reached the wall guard

@@ -1,12 +1,13 @@
 """What a 3-D scene (``geometry.dimension = 3``) may call for; the rest is refused in one line before meshing.
 
 The 3-D model is the cylinder or the slab half model (:mod:`suture_fem.geometry.gmsh_3d`): the same materials, sharp
-or rounded rims, the tied or sliding cones, the tied, frictionless, sliding or Coulomb thread, the elastic or the rigid
-suture, the displacement or the mixed formulation, gravity along the thread, the pull as a force on the thread's end
-face or its end moved (displacement control), the static load ramp or inertia's time history, the field files, the
-load shares, and the USUM, SEQV and EPTOEQV maxima (with the reaction, energy and end displacement) and their
-critical-distance averages over a ball (:mod:`suture_fem.outputs.ball_search`). What is built in 2-D only is listed
-here with the key that asks for it.
+or rounded rims, the tied, sliding, frictionless or Coulomb cones (the unilateral ones with the trust region and the
+swapping pairs' doubled penalty: docs/three-d.md), the tied, frictionless, sliding or Coulomb thread, the elastic or
+the rigid suture, the displacement or the mixed formulation, gravity along the thread, the pull as a force on the
+thread's end face or its end moved (displacement control), the static load ramp or inertia's time history, the field
+files, the load shares, and the USUM, SEQV and EPTOEQV maxima (with the reaction, energy and end displacement) and
+their critical-distance averages over a ball (:mod:`suture_fem.outputs.ball_search`). What is built in 2-D only is
+listed here with the key that asks for it.
 """
 
 from __future__ import annotations
@@ -19,8 +20,6 @@ from suture_fem.support.errors import SceneError
 #: (scene key, the values a 3-D scene may have, what the others would ask for). Each other value is refused in 3-D.
 UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
     ("mesh.geometry_degree", (1,), "quadratic cells are built in 2-D only"),
-    ("effects.cone_interface", ("tied", "sliding"), "the cones' unilateral contact (frictionless, coulomb) is built in "
-     "2-D only (3-D frictionless cones stopped at 0.21 of 0.5 N on a coarse cylinder: docs/three-d.md)"),
 )
 
 

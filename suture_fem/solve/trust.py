@@ -29,7 +29,8 @@ open pairs is solved again with them joined (:mod:`~suture_fem.physics.effects.c
 trust region refused every step that pressed a node lying 0.3 um off its cone and crawled toward it.
 
 Used only where SNES's solve failed, from that solve's start (``solver.trust_region``): "auto" where the
-cones' Jacobian is convexified (P2 unilateral cones, whose ramps stopped near 1 N), "on" for every solve
+cones' Jacobian is convexified (P2 unilateral cones, whose ramps stopped near 1 N) and for the unilateral
+cones in 3-D (``ConeContact.trusted``; they stopped at 0.21 of 0.5 N without it), "on" for every solve
 with the energy objective and LDL^T, "off" never. A scene it does not touch is solved bit for bit as
 without it.
 
@@ -94,7 +95,7 @@ class TrustRegion:
         """The fallback ``solver.trust_region`` asks for, or None (off, or no energy objective or LDL^T)."""
         mode = newton.options.trust_region
         contact = getattr(newton.physics, "cone_contact", None)
-        wanted = mode == "on" or (mode == "auto" and contact is not None and contact.convexified)
+        wanted = mode == "on" or (mode == "auto" and contact is not None and contact.trusted)
         usable = newton.objective_form is not None and newton.options.inertia_correction
         return cls(newton) if wanted and usable else None
 

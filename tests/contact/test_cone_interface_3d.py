@@ -1,8 +1,9 @@
 """The cones' contact in 3-D (the half model): the terms' gradient and Hessian against finite differences of their
 potential on the coarse cylinder of tests/integration/test_three_d_run.py, the search moving as the state moves.
 
-The frictionless cones are refused in 3-D (their solve stopped at 0.21 of 0.5 N on this cylinder, docs/three-d.md);
-their terms are checked here too, built past the refusal: what stops is not their derivatives."""
+The frictionless cones' terms are checked here too: before the trust region carried them (docs/three-d.md, "The
+unilateral cones") their solve stopped at 0.21 of 0.5 N on this cylinder, and what stopped it was not their
+derivatives."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from tests.integration.test_three_d_run import COARSE_3D
 
 
 def _physics(model: str):
-    """The coarse cylinder's physics; past the 3-D refusal of the frictionless cones (their solve is what stops)."""
+    """The coarse cylinder's physics with the cones' ``model``."""
     from suture_fem import Model
     from suture_fem.scene.load import parse_scene
 

@@ -90,3 +90,18 @@ def _serial_and_parallel(tmp_path_factory, name: str, scene: list[str]) -> tuple
         for q in QUANTITIES:
             assert b[q] == pytest.approx(a[q], rel=REL), (a["force_n"], q)
     return serial, parallel
+
+
+@pytest.mark.long  # about 4 CPU minutes (benchmarks/long_tests.py)
+def test_two_ranks_give_the_serial_frictionless_cones(tmp_path_factory):
+    """The unilateral cones in 3-D on 2 ranks, past the steps the trust region solves (from 0.2 N on), to 0.3 N:
+    the same numbers as serial, the same open, slipping and boosted pairs."""
+    scene = [*COARSE_3D, 'effects.cone_interface="frictionless"', "loading.force_n=0.3",
+             "loading.report_forces_n=[0.15]"]
+    serial, parallel = _serial_and_parallel(tmp_path_factory, "frictionless_cones", scene)
+    assert serial["trust_region"]["converged"] >= 1
+    for a, b in zip(serial["at_forces"], parallel["at_forces"], strict=True):
+        assert b["load_share_n"]["cone_1"] == pytest.approx(a["load_share_n"]["cone_1"], rel=REL)
+        counts = ("open_nodes", "slip_nodes", "penalty_boosted_nodes")
+        assert [b["interface"]["cone_contact"].get(k) for k in counts] == [
+            a["interface"]["cone_contact"].get(k) for k in counts]

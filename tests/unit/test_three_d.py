@@ -22,7 +22,7 @@ from suture_fem.support.errors import SceneError
 
 THREE_D = {"geometry.dimension": 3, "output.critical_distance_mm": 0.0, "output.quantities": ["usum", "seqv"]}
 #: A value of each key that a 3-D scene refuses.
-REFUSED = {"mesh.geometry_degree": 2, "effects.cone_interface": "frictionless"}
+REFUSED = {"mesh.geometry_degree": 2}
 
 
 def test_a_plain_3d_scene_passes_the_checks():
@@ -33,7 +33,8 @@ def test_a_plain_3d_scene_passes_the_checks():
     check_three_d(Scene.from_values({**THREE_D, **built}))  # and these, since 2026-12
     rounded_rims_frictionless_thread = {"geometry.cone_fillet_mm": 0.04, "effects.thread_interface": "frictionless"}
     check_three_d(Scene.from_values({**THREE_D, **rounded_rims_frictionless_thread}))
-    check_three_d(Scene.from_values({**THREE_D, "effects.cone_interface": "sliding"}))  # the sliding cones
+    for cones in ("sliding", "frictionless", "coulomb"):  # the unilateral ones since 2026-12-05
+        check_three_d(Scene.from_values({**THREE_D, "effects.cone_interface": cones}))
 
 
 @pytest.mark.parametrize("key", [k for k, _, _ in UNSUPPORTED])

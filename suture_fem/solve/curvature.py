@@ -9,13 +9,13 @@ region's iterations, each moving the state a few micrometres while the residual 
 
 Moré and Sorensen (1983; Nocedal and Wright, Numerical Optimization, 2nd ed., section 4.3, "the hard case")
 complete such a step along z, the eigenvector of the most negative eigenvalue, to the boundary: p + tau z with
-|p + tau z| = delta, of tau's two roots the one whose model value is lower, and p as it is where neither lowers
-it (here the model also holds the cones' open pairs, whose penalty a long step along z may press). z comes from
-inverse iteration on the factorisation already made (of A + lam D, positive definite), whose largest eigenvalue
-1 / (lam + theta) belongs to the pencil's lowest, theta; it starts from p (the shifted solve has already
-amplified that direction) and takes :data:`INVERSE_ITERATIONS` solves, no factorisation. It is used only where
-its Rayleigh quotient theta = z.A z / z.D z is negative; the trust region's energy test decides, as for every
-step.
+|p + tau z| = delta (here at most :data:`STRETCH` |p|), of tau's two roots the one whose model value is lower,
+and p as it is where neither lowers it (here the model also holds the cones' open pairs, whose penalty a long
+step along z may press). z comes from inverse iteration on the factorisation already made (of A + lam D,
+positive definite), whose largest eigenvalue 1 / (lam + theta) belongs to the pencil's lowest, theta; it starts
+from p (the shifted solve has already amplified that direction) and takes :data:`INVERSE_ITERATIONS` solves, no
+factorisation. It is used only where its Rayleigh quotient theta = z.A z / z.D z is negative; the trust region's
+energy test decides, as for every step.
 """
 
 from __future__ import annotations
@@ -36,13 +36,13 @@ STRETCH = 4.0
 
 def to_boundary(ksp: Any, A: Any, scale: Any, g: Any, p: Any, delta: float,
                 extra: Callable[[Any], float]) -> tuple[float, float]:
-    """Complete the interior step ``p`` (in place) along A's negative curvature to |p| = ``delta``.
+    """Complete the interior step ``p`` (in place) along A's negative curvature to |p| = min(delta, STRETCH |p|).
 
-    ``ksp`` holds a positive definite factorisation of A + lam D (lam > 0, D = ``scale``; or of A with the trust
-    region's joined pairs, which only add to it, + lam D); ``extra(p)``: the
-    model's terms besides g.p + p.A p / 2 (the open pairs' penalty). Of p and its two completions the one of
-    lowest model value is kept. Returns (|p|, theta): theta >= 0 where (A, D) shows no negative curvature along
-    the iteration's direction, and then p unchanged (collective).
+    ``ksp`` holds a positive definite factorisation of A + lam D (lam > 0, D = ``scale``), or of the same with the
+    trust region's joined pairs' terms, which only add to A; ``extra(p)``: the model's terms besides
+    g.p + p.A p / 2 (the open pairs' penalty). Of p and its two completions the one of lowest model value is kept.
+    Returns (|p|, theta): theta >= 0 where (A, D) shows no negative curvature along the iteration's direction, and
+    then p unchanged; theta = 0 where p was not completed for its length (collective).
     """
     norm = p.norm()
     reach = min(delta, STRETCH * norm)

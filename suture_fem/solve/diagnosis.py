@@ -111,7 +111,8 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
     return ("; unilateral cones stall where the tissue releases from them (a few nodes swapping between open and "
             "pressed; which state a ramp reaches is path-picked, docs/contact.md: Two equilibria): the paper scene "
             '(4 cones, P1, force control, the default steps) reaches 4 N; effects.cone_interface = "sliding" does '
-            "not release")
+            'not release; solver.trust_region = "on" carried docs/hardcases.md\'s P1 cone cases further (Coulomb '
+            "mu 1 to 2.4 of 6 mm instead of 0.11, the soft tissue to its 8 mm: The trust region at P1)")
 
 
 #: A stop with the cones' corners held out of the tissue (``effects.cone_corners = "held"``).

@@ -30,7 +30,7 @@ trust region refused every step that pressed a node lying 0.3 um off its cone an
 
 Used only where SNES's solve failed, from that solve's start (``solver.trust_region``): "auto" where the
 cones' Jacobian is convexified (P2 unilateral cones, whose ramps stopped near 1 N) and for the unilateral
-cones in 3-D (``ConeContact.trusted``; they stopped at 0.21 of 0.5 N without it), "on" for every solve
+cones in 3-D (``ConeContact.safeguarded``; they stopped at 0.21 of 0.5 N without it), "on" for every solve
 with the energy objective and LDL^T, "off" never. A scene it does not touch is solved bit for bit as
 without it.
 
@@ -95,7 +95,7 @@ class TrustRegion:
         """The fallback ``solver.trust_region`` asks for, or None (off, or no energy objective or LDL^T)."""
         mode = newton.options.trust_region
         contact = getattr(newton.physics, "cone_contact", None)
-        wanted = mode == "on" or (mode == "auto" and contact is not None and contact.trusted)
+        wanted = mode == "on" or (mode == "auto" and contact is not None and contact.safeguarded)
         usable = newton.objective_form is not None and newton.options.inertia_correction
         return cls(newton) if wanted and usable else None
 
@@ -180,12 +180,11 @@ class TrustRegion:
             w.trial.waxpy(1.0, w.p, x)
             ft = newton._objective(None, w.trial)
             its += 1
-            small = gnorm < FULL_STEP_RESIDUAL * force
-            keep = _kept(newton, w, f, ft, predicted, small, gnorm)
+            rounding = gnorm < FULL_STEP_RESIDUAL * force or abs(predicted) < 1e-11 * abs(f)
+            keep = _kept(newton, w, f, ft, predicted, rounding, gnorm)
             log.debug("trust region %d: |g| %.3e, lam0 %.1e, |p| %.3e (radius %.2e, %d joins, curvature %.1e), "
                       "energy %+.3e of %+.3e predicted%s", its, gnorm, w.lam0, norm, self.delta, w.joins, w.theta,
                       f - ft, predicted, "" if keep else ", refused")
-            rounding = small or abs(predicted) < 1e-11 * abs(f)
             if not rounding:
                 w.carry = self.delta
             if keep:
@@ -272,7 +271,7 @@ class TrustRegion:
             norm, w.theta = curvature.to_boundary(self.newton.snes.getKSP(), self.newton.A, w.scale, g, w.p,
                                                   self.delta, extra)
         if self.gaps is not None:
-            w.pressing = self.gaps.energy(self.gaps.change(w.p))
+            w.pressing = self.gaps.energy(change if norm == w.base else self.gaps.change(w.p))
         return norm
 
     def _joined_step(self, w: Work, g: Any, joined: np.ndarray, lam: float) -> float:
@@ -344,14 +343,15 @@ def _solve(ksp: Any, g: Any, p: Any) -> float:
     return p.norm()
 
 
-def _kept(newton: Any, w: Work, f: float, ft: float, predicted: float, small: bool, gnorm: float) -> bool:
+def _kept(newton: Any, w: Work, f: float, ft: float, predicted: float, rounding: bool, gnorm: float) -> bool:
     """Whether the trial state is kept: the energy's fall against the prediction, or |g| below its rounding.
 
-    ``ft``: the trial's energy, just evaluated (the memo then holds its admissibility).
+    ``ft``: the trial's energy, just evaluated (the memo then holds its admissibility); ``rounding``: the step is
+    below the energy's rounding (the module docstring), where |g| decides.
     """
     if not newton.memo.admissible:  # the trial's verdict, just made by the objective
         return False
-    if not small and abs(predicted) >= 1e-11 * abs(f):
+    if not rounding:
         return predicted > 0 and (f - ft) >= RHO_KEEP * predicted
     residual = w.Ap  # free after the prediction
     newton._residual(None, w.trial, residual)

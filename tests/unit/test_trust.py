@@ -184,7 +184,7 @@ def test_which_scenes_get_the_trust_region(mode, convexified, objective, built):
     fake = _Fake((0.0, 0.5))
     fake.options.trust_region = mode
     if convexified is not None:
-        fake.physics.cone_contact = SimpleNamespace(convexified=convexified, trusted=convexified,  # as in 2-D
+        fake.physics.cone_contact = SimpleNamespace(convexified=convexified, safeguarded=convexified,  # as in 2-D
                                                     bilateral=True)  # no gap model
     fake.objective_form = object() if objective else None
     assert (trust.TrustRegion.of(fake) is not None) is built

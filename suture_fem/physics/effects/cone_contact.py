@@ -101,7 +101,7 @@ class ConeContact(SlipBound):
         self.touch_holds, self.depth_limit = touch_holds, DEPTH_FRACTION * float(wall_m)
         self._reach = 0.5 * float(wall_m) - self.depth_limit  # a shorter move from the limit cannot pass the mid-plane
         self.convexified = convexified and not self.bilateral
-        self.boosting = self.trusted = self.convexified  # P2; 3-D too (:meth:`on`; docs/three-d.md)
+        self.safeguarded = self.convexified  # swapping pairs boosted, the trust region: P2; 3-D too (:meth:`on`)
         self.mu, self.slip = (float(mu) if model == "coulomb" else 0.0), float(slip_m)
         self.nodes, self.dofs, self.position = pairs["nodes"], pairs["dofs"], pairs["X"]
         self.X = cone_frame.place(self.position)[0]
@@ -149,7 +149,7 @@ class ConeContact(SlipBound):
                       section.cone_interface, section.friction_coefficient, section.friction_slip_mm * regions.MM,
                       target, convexified=p2, touch_holds=section.thread_track or p2,
                       wall_m=scene.geometry.cone_wall_mm * regions.MM)
-        contact.boosting = contact.trusted = not contact.bilateral and (p2 or physics.mesh.geometry.dim == 3)
+        contact.safeguarded = not contact.bilateral and (p2 or physics.mesh.geometry.dim == 3)
         if not contact.bilateral and physics.mesh.geometry.dim == 2:
             pieces = chain(physics, contact.outlines)
             contact.corners = CornerPass(physics.comm, contact._state, pieces, contact.outlines, contact.cone_dofs,
@@ -266,7 +266,7 @@ class ConeContact(SlipBound):
         extra = (np.zeros(0),) * 3  # the corners' (rank 0's) residual, change and multipliers
         if worst > self.target:
             self.multiplier = np.maximum(old + self._uzawa.factor(r * self.weight) * r, 0.0)  # unilateral
-            if self.boosting:  # docs/contact.md, "The multipliers that swap"
+            if self.safeguarded:  # docs/contact.md, "The multipliers that swap"
                 swapped = self._reversals.of(r) & closed  # their penalty doubled (BOOST_MAX)
                 self.boost[swapped] = np.minimum(BOOST_MAX, 2.0 * self.boost[swapped])
             extra = corners.move(self._state, t_c) if corners else extra

@@ -112,13 +112,14 @@ def correct(ksp: Any, A: Any) -> tuple[bool, int]:
     return not failed, extra
 
 
-def smallest_shift(ksp: Any, A: Any, original: Any, scale: Any, shifts: list[float], start: int
-                   ) -> tuple[int | None, int]:
+def smallest_shift(ksp: Any, A: Any, original: Any, scale: Any, shifts: list[float], start: int,
+                   down: bool = True) -> tuple[int | None, int]:
     """The index of the smallest of ``shifts`` whose A (diagonal original + shift x scale) has no negative pivot.
 
-    Searched from ``start``: up while the factorisation has negative pivots (or fails), else down while it has
-    none. A is left shifted by the shift found and its factorisation in the KSP (whose operator A must be);
-    None when none of them has none (A left shifted by the last). Returns (index or None, factorisations made).
+    Searched from ``start``: up while the factorisation has negative pivots (or fails), else (``down``) down while
+    it has none; without ``down`` the start is taken where it has none. A is left shifted by the shift found and
+    its factorisation in the KSP (whose operator A must be); None when none of them has none (A left shifted by
+    the last). Returns (index or None, factorisations made).
     """
     k = start
     negative, extra = _shifted(ksp, A, original, scale, shifts[k]), 1
@@ -127,7 +128,7 @@ def smallest_shift(ksp: Any, A: Any, original: Any, scale: Any, shifts: list[flo
         negative, extra = _shifted(ksp, A, original, scale, shifts[k]), extra + 1
     if negative is None or negative > 0:
         return None, extra
-    if extra == 1:  # the first one tried already had none: the smaller ones, while they have none
+    if extra == 1 and down:  # the first one tried already had none: the smaller ones, while they have none
         while k > 0:
             lower, extra = _shifted(ksp, A, original, scale, shifts[k - 1]), extra + 1
             if lower is None or lower > 0:

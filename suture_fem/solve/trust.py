@@ -11,10 +11,14 @@ The Levenberg-Marquardt form (Moré 1978; Nocedal & Wright, Numerical Optimizati
 the step p(lam) = -(A + lam D)^-1 g, A the exact Jacobian (the cones' softening beside a convex arc
 included: :func:`~suture_fem.solve.jacobian.exact`), D = |diag A|, g the residual, lam at least lam0, the
 smallest of 0, 1e-8, 1e-7, ... whose factorisation (MUMPS LDL^T) has no negative pivot, and large enough
-that |p| <= delta (lam found by interpolating log |p| against log lam: |p(lam)| falls as lam grows). A step
-is kept when the energy falls by at least RHO_KEEP of what the quadratic model g.p + p.A p / 2 predicts (a
-trial state outside the admissible domain counts as a rise); delta then grows to GROW x |p| after a
-well-predicted step that the radius held, and shrinks to SHRINK x |p| after a rejected one. Below the
+that |p| <= delta (lam found by interpolating log |p| against log lam: |p(lam)| falls as lam grows). Where 0
+has one, lam0 is sought from one rung below the last shifted Jacobian's, up, and not down from there: on the
+P2 cones the search down cost 4.5 factorisations per shifted Jacobian. A step is kept when the energy falls
+by at least RHO_KEEP of what the quadratic model g.p + p.A p / 2 predicts (a trial state outside the admissible
+domain counts as a rise); delta then grows to GROW x |p| after a well-predicted step that the radius held. A
+refused one is tried at half and a quarter of its length (an energy evaluation each, no factorisation; on
+the P2 cones most refusals are an element beside a rim inverted by a step of the grown radius), and where
+neither is kept delta shrinks to SHRINK x |p|. Below the
 energy's rounding (|g| < FULL_STEP_RESIDUAL x force, or a predicted fall below 1e-11 of the energy) a step
 is kept where it lowers |g|, and a refused one takes the residual's round-off floor at the iterate (the
 Newton solve's is taken at the solve's start, 0 at rest: a first step from rest failed at |g| 1.15e-10 N
@@ -53,13 +57,11 @@ from mpi4py import MPI
 from suture_fem.physics.effects.cone_model import GapModel
 from suture_fem.solve import curvature, inertia, jacobian
 from suture_fem.solve.stopping import FULL_STEP_RESIDUAL, force_scale
-from suture_fem.solve.trust_work import Work
+from suture_fem.solve.trust_work import NoShift, Work, falls, kept, shifted_solve
 from suture_fem.support import compat
 
 log = logging.getLogger("suture_fem")
 
-#: A step is kept when the energy falls by at least this fraction of the model's prediction.
-RHO_KEEP = 1e-4
 #: A kept step whose fall was at least RHO_GOOD of the prediction, and that the radius held, grows it to GROW |p|.
 RHO_GOOD, GROW = 0.75, 4.0
 #: A rejected step shrinks the radius to SHRINK |p|; below MIN_RADIUS (in the unknowns' 2-norm, m) the solve fails.
@@ -69,6 +71,10 @@ FIRST_RADIUS = 1e-3
 #: Shifts of lam0's ladder (times |diag A|) after 0; beyond the last the Jacobian counts as failed.
 FIRST_SHIFT, LAST_SHIFT = 1e-8, 1e6
 SHIFTS = [FIRST_SHIFT * 10.0**k for k in range(15)]  # 1e-8 ... 1e6
+#: The rung a ramp's first shifted Jacobian is tried at (1e-3), and searched down from where it has no negative pivot.
+FIRST_RUNG = 5
+#: A refused step is tried again at these fractions of its length (objective evaluations, no factorisation).
+SHORTER = (0.5, 0.25)
 #: Tries at the shift that puts |p| between half the radius and the radius.
 SHIFT_TRIES = 6
 #: Iterations of one solve, in units of ``solver.max_iterations``.
@@ -87,6 +93,7 @@ class TrustRegion:
         """The fallback of ``newton``; :meth:`of` says whether a scene wants one."""
         self.newton = newton
         self.delta = FIRST_RADIUS
+        self.rung: int | None = None  # the last shifted Jacobian's lam0 on SHIFTS (the ramp's; None: none yet)
         self.gaps = GapModel.of(newton.physics, newton.reduction)  # the open pairs in the model, or None
         self.record: dict[str, int] = self.begin()
 
@@ -101,7 +108,7 @@ class TrustRegion:
 
     def begin(self) -> dict[str, int]:
         """A new ramp's counts (the ramp's record holds the same dict), the first radius again."""
-        self.delta = FIRST_RADIUS
+        self.delta, self.rung = FIRST_RADIUS, None
         self.record = {"solves": 0, "converged": 0, "iterations": 0, "factorisations": 0}
         return self.record
 
@@ -170,9 +177,9 @@ class TrustRegion:
                 w.matrix(newton.A)
                 try:
                     w.lam0 = self._lowest_shift(w)
-                except _NoShift:
+                except NoShift:
                     return False, its, "DIVERGED_LINEAR_SOLVE"
-                w.norm0 = _solve(newton.snes.getKSP(), g, w.p0)
+                w.norm0 = shifted_solve(newton.snes.getKSP(), g, w.p0)
                 fresh = False
             norm = self._step(w, g)
             newton.A.mult(w.p, w.Ap)
@@ -181,22 +188,16 @@ class TrustRegion:
             ft = newton._objective(None, w.trial)
             its += 1
             rounding = gnorm < FULL_STEP_RESIDUAL * force or abs(predicted) < 1e-11 * abs(f)
-            keep = _kept(newton, w, f, ft, predicted, rounding, gnorm)
+            keep = kept(newton, w, f, ft, predicted, rounding, gnorm)
             log.debug("trust region %d: |g| %.3e, lam0 %.1e, |p| %.3e (radius %.2e, %d joins, curvature %.1e), "
                       "energy %+.3e of %+.3e predicted%s", its, gnorm, w.lam0, norm, self.delta, w.joins, w.theta,
                       f - ft, predicted, "" if keep else ", refused")
             if not rounding:
                 w.carry = self.delta
+                if not keep:  # along the refused step, shorter (no factorisation)
+                    keep, ft, norm, predicted = self._shorter(w, x, g, f, norm)
             if keep:
-                ratio = (f - ft) / predicted if predicted > 0 else 1.0
-                w.trial.copy(x)
-                f = ft
-                newton._residual(None, x, g)
-                self._jacobian()
-                self._centre(x)
-                fresh = True
-                if ratio > RHO_GOOD and norm > 0.45 * self.delta:
-                    self.delta = max(self.delta, GROW * norm)
+                f, fresh = self._accept(w, x, g, f, ft, predicted, norm), True
             else:  # refused; where the step had been completed along z (norm > base), next the step before that
                 self.delta = max(SHRINK * norm, w.base) if norm > w.base else SHRINK * norm
                 newton.reduction.expand(x)
@@ -208,6 +209,46 @@ class TrustRegion:
                 if self.delta < MIN_RADIUS:
                     return False, its, "DIVERGED_TR_DELTA"
         return False, its, "DIVERGED_MAX_IT"
+
+    def _accept(self, w: Work, x: Any, g: Any, f: float, ft: float, predicted: float, norm: float) -> float:
+        """Move x to the trial state (its residual into g, its Jacobian); returns its energy ``ft``.
+
+        The radius grows after a well-predicted step that it held.
+        """
+        ratio = (f - ft) / predicted if predicted > 0 else 1.0
+        w.trial.copy(x)
+        self.newton._residual(None, x, g)
+        self._jacobian()
+        self._centre(x)
+        if ratio > RHO_GOOD and norm > 0.45 * self.delta:
+            self.delta = max(self.delta, GROW * norm)
+        return ft
+
+    def _shorter(self, w: Work, x: Any, g: Any, f: float, norm: float) -> tuple[bool, float, float, float]:
+        """The refused step p tried at the fractions :data:`SHORTER` of its length, each against its own prediction.
+
+        Backtracking inside the trust region (Nocedal and Yuan 1998): most refusals on the P2 cones are a trial
+        state that inverts an element beside a rim, after the radius grew; a shorter step along p costs an
+        energy evaluation where a new radius costs factorisations. Kept: p scaled, the radius its length. Returns
+        (kept, its energy, |p|, its prediction) as the caller's; unchanged where none is kept (the last one tried's
+        energy and prediction).
+        """
+        newton = self.newton
+        gp, pAp = g.dot(w.p), w.p.dot(w.Ap)  # Ap: A p, the caller's prediction's
+        change = None if self.gaps is None else self.gaps.change(w.p)
+        ft = predicted = 0.0
+        for alpha in SHORTER:
+            pressing = 0.0 if change is None else self.gaps.energy(alpha * change)
+            predicted = -(alpha * gp + 0.5 * alpha * alpha * pAp) - pressing
+            w.trial.waxpy(alpha, w.p, x)
+            ft = newton._objective(None, w.trial)
+            if newton.memo.admissible and falls(f, ft, predicted):
+                w.p.scale(alpha)
+                self.delta = alpha * norm
+                log.debug("trust region: kept at %.2f of the step, energy %+.3e of %+.3e predicted", alpha, f - ft,
+                          predicted)
+                return True, ft, alpha * norm, predicted
+        return False, ft, norm, predicted
 
     def _jacobian(self) -> None:
         """The exact Jacobian at the current state into ``newton.A`` (its trial states start here)."""
@@ -227,17 +268,21 @@ class TrustRegion:
     def _lowest_shift(self, w: Work) -> float:
         """lam0: the smallest of 0 and :data:`SHIFTS` whose factorisation has no negative pivot (left in the KSP).
 
-        :func:`~suture_fem.solve.inertia.smallest_shift` on this ladder, from one below the last Jacobian's.
+        :func:`~suture_fem.solve.inertia.smallest_shift` on this ladder, from one below the last shifted Jacobian's
+        rung (of this ramp, across solves), taken where it has no negative pivot: no search further down, whose
+        factorisations cost more than the rung overshifts (the step is then completed along the negative
+        curvature); a ramp's first from :data:`FIRST_RUNG`, searched both ways.
         """
         if self._factorise(w, 0.0):
-            w.k0 = None
             return 0.0
-        start = 0 if w.k0 is None else max(w.k0 - 1, 0)
-        w.k0, extra = inertia.smallest_shift(self.newton.snes.getKSP(), w.M, w.diag, w.scale, SHIFTS, start)
+        known = self.rung is not None
+        start = max(self.rung - 1, 0) if known else FIRST_RUNG
+        self.rung, extra = inertia.smallest_shift(self.newton.snes.getKSP(), w.M, w.diag, w.scale, SHIFTS, start,
+                                                  down=not known)
         self.record["factorisations"] += extra
-        if w.k0 is None:
-            raise _NoShift
-        return SHIFTS[w.k0]
+        if self.rung is None:
+            raise NoShift
+        return SHIFTS[self.rung]
 
     def _centre(self, x: Any) -> None:
         """The open pairs' model (where kept) centred on the iterate ``x``."""
@@ -288,7 +333,7 @@ class TrustRegion:
             inertia.shifted_definite(newton.snes.getKSP(), w.K, diag, w.scale, lam)
         finally:
             diag.destroy()
-        norm = _solve(newton.snes.getKSP(), w.g, w.p)
+        norm = shifted_solve(newton.snes.getKSP(), w.g, w.p)
         if norm > self.delta:
             w.p.scale(self.delta / norm)
             norm = self.delta
@@ -304,7 +349,7 @@ class TrustRegion:
         hi = max(w.lam, 10.0 * w.lam0, FIRST_SHIFT)
         while True:  # bracket: |p(lo)| > delta >= |p(hi)|
             self._factorise(w, hi)
-            norm = _solve(ksp, g, w.p)
+            norm = shifted_solve(ksp, g, w.p)
             if norm <= self.delta:
                 break
             lo, norm_lo, hi = hi, norm, 30.0 * hi
@@ -319,7 +364,7 @@ class TrustRegion:
             else:
                 mid = hi / 30.0
             self._factorise(w, mid)
-            trial = _solve(ksp, g, w.Ap)
+            trial = shifted_solve(ksp, g, w.Ap)
             if trial <= self.delta:
                 hi, norm = mid, trial
                 w.Ap.copy(w.p)
@@ -327,32 +372,3 @@ class TrustRegion:
                 lo, norm_lo = mid, trial
         w.lam = hi
         return norm
-
-
-class _NoShift(RuntimeError):
-    """No shift up to LAST_SHIFT |diag A| removed the Jacobian's negative pivots."""
-
-
-def _solve(ksp: Any, g: Any, p: Any) -> float:
-    """The step -K^-1 g into p, K the KSP's factorisation; returns |p|."""
-    g.scale(-1.0)
-    try:
-        ksp.solve(g, p)
-    finally:
-        g.scale(-1.0)
-    return p.norm()
-
-
-def _kept(newton: Any, w: Work, f: float, ft: float, predicted: float, rounding: bool, gnorm: float) -> bool:
-    """Whether the trial state is kept: the energy's fall against the prediction, or |g| below its rounding.
-
-    ``ft``: the trial's energy, just evaluated (the memo then holds its admissibility); ``rounding``: the step is
-    below the energy's rounding (the module docstring), where |g| decides.
-    """
-    if not newton.memo.admissible:  # the trial's verdict, just made by the objective
-        return False
-    if not rounding:
-        return predicted > 0 and (f - ft) >= RHO_KEEP * predicted
-    residual = w.Ap  # free after the prediction
-    newton._residual(None, w.trial, residual)
-    return residual.norm() < gnorm

@@ -1,10 +1,13 @@
-"""The vectors and the shifted matrices of one trust-region solve (:mod:`suture_fem.solve.trust`)."""
+"""A trust-region solve's vectors and shifted matrices, linear solve and step test (:mod:`suture_fem.solve.trust`)."""
 
 from __future__ import annotations
 
 from typing import Any
 
 from petsc4py import PETSc
+
+#: A step is kept when the energy falls by at least this fraction of the model's prediction.
+RHO_KEEP = 1e-4
 
 
 class Work:
@@ -19,7 +22,6 @@ class Work:
         self.carry = 0.0  # the radius at the last step above the energy's rounding
         self.joins, self.theta = 0, 0.0  # the last step's joined solves and its negative curvature (0: none)
         self.base = 0.0  # the last step's |p| before its completion along z
-        self.k0: int | None = None  # lam0's place on SHIFTS (None: 0)
         self.norm0 = 0.0
         self.pressing = 0.0  # the open pairs' model energy at the step (J)
         self.F: Any = None  # the full Jacobian with joined pairs, its reduction K (made by ptap), their residuals b, g
@@ -55,3 +57,37 @@ class Work:
                     self.g):
             if obj is not None:
                 obj.destroy()
+
+
+class NoShift(RuntimeError):
+    """No shift up to the ladder's last |diag A| removed the Jacobian's negative pivots."""
+
+
+def shifted_solve(ksp: Any, g: Any, p: Any) -> float:
+    """The step -K^-1 g into p, K the KSP's factorisation; returns |p|."""
+    g.scale(-1.0)
+    try:
+        ksp.solve(g, p)
+    finally:
+        g.scale(-1.0)
+    return p.norm()
+
+
+def falls(f: float, ft: float, predicted: float) -> bool:
+    """Whether the energy's fall f - ft is at least RHO_KEEP of the model's positive prediction."""
+    return predicted > 0 and f - ft >= RHO_KEEP * predicted
+
+
+def kept(newton: Any, w: Work, f: float, ft: float, predicted: float, rounding: bool, gnorm: float) -> bool:
+    """Whether the trial state is kept: the energy's fall against the prediction, or |g| below its rounding.
+
+    ``ft``: the trial's energy, just evaluated (the memo then holds its admissibility); ``rounding``: the step is
+    below the energy's rounding (:mod:`suture_fem.solve.trust`), where |g| decides.
+    """
+    if not newton.memo.admissible:  # the trial's verdict, just made by the objective
+        return False
+    if not rounding:
+        return falls(f, ft, predicted)
+    residual = w.Ap  # free after the prediction
+    newton._residual(None, w.trial, residual)
+    return residual.norm() < gnorm

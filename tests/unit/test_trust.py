@@ -307,3 +307,32 @@ def test_a_solve_that_meets_the_residual_s_rounding_ends_at_its_floor_there():
     assert fake.x.getArray(readonly=True)[0] == pytest.approx(minimum, abs=1e-8)
     assert fake.floor == pytest.approx(1e-8 * abs(minimum), rel=1e-6)  # taken at the solution, not at rest
     assert region.delta > 1e-6  # the next solve starts from the radius before the rounding's refusals
+
+
+def test_a_refused_step_is_tried_shorter_before_the_radius_shrinks(monkeypatch):
+    """From (0, 0.5) with a radius of 50 the first steps overshoot into x < -1.05, outside the domain. The refused
+    step is tried at half its length, then a quarter (energy evaluations only), and kept there where the energy
+    falls as that shorter step's model predicts: the same minimum in fewer factorisations than without."""
+    _, minimum = _saddle_and_minimum()
+    counts = {}
+    for shorter in ((), trust.SHORTER):
+        monkeypatch.setattr(trust, "SHORTER", shorter)
+        fake = _Fake((0.0, 0.5), forbidden_below=-1.05)
+        region = trust.TrustRegion(fake)
+        region.delta = 50.0
+        events = []  # ("trial", x) at each energy evaluation, ("state", x) at each residual (a kept state's)
+        objective, residual = fake._objective, fake._residual
+        fake._objective = lambda snes, x, e=events, f=objective: e.append(("trial", x.getArray().copy())) or f(snes, x)
+        fake._residual = lambda snes, x, b, e=events, r=residual: e.append(("state", x.getArray().copy())) or r(
+            snes, x, b)
+        ok, _, _ = region.solve()
+        assert ok and fake.x.getArray(readonly=True)[0] == pytest.approx(minimum, abs=1e-10)
+        counts[shorter] = region.record["factorisations"]
+        outside = [k for k, (kind, v) in enumerate(events) if kind == "trial" and v[0] < -1.05]
+        assert outside  # the overshoot happened
+        if shorter:  # next: the same step at half its length, from the state it started at
+            k = outside[0]
+            start = [v for kind, v in events[:k] if kind == "state"][-1]
+            assert events[k + 1][0] == "trial"
+            assert events[k + 1][1] == pytest.approx(start + 0.5 * (events[k][1] - start), abs=1e-12)
+    assert counts[trust.SHORTER] < counts[()]

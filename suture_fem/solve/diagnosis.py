@@ -99,8 +99,8 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
     if degree == 2:
         return ("; the cones' contact is carried furthest by mesh.degree = 1 (the paper scene to 4 N); at P2 the "
                 'trust region (solver.trust_region = "auto") and the swapping pairs\' doubled penalty carry one and '
-                "four frictionless cones of the paper scene to 4 N, at 1.7 and 3.8 times P1's Newton iterations "
-                "(docs/contact.md: The trust region's steps along negative curvature)")
+                "four frictionless cones of the paper scene to 4 N, at 1.7 and 3.7 times P1's Newton iterations "
+                "(docs/contact.md: Fewer factorisations per trust-region iteration)")
     if effects.cone_interface == "sliding" and not walled:
         return ""  # the tissue's advice, below
     if effects.cone_interface == "sliding":  # its pure penalty's penetration reached the wall guard
@@ -111,8 +111,9 @@ def _cone_advice(effects: Any, degree: int, moved: bool, walled: bool) -> str:
     return ("; unilateral cones stall where the tissue releases from them (a few nodes swapping between open and "
             "pressed; which state a ramp reaches is path-picked, docs/contact.md: Two equilibria): the paper scene "
             '(4 cones, P1, force control, the default steps) reaches 4 N; effects.cone_interface = "sliding" does '
-            'not release; solver.trust_region = "on" carried docs/hardcases.md\'s P1 cone cases further (Coulomb '
-            "mu 1 to 2.4 of 6 mm instead of 0.11, the soft tissue to its 8 mm: The trust region at P1)")
+            'not release; the trust region (solver.trust_region = "auto") already takes these cones\' failed solves '
+            "and carries docs/hardcases.md's P1 cone cases further, at a cost (Coulomb mu 1 to 2.4 of 6 mm instead of "
+            '0.11 in 4,500 Newton iterations: The trust region at P1); "off" stops sooner and cheaper')
 
 
 #: A stop with the cones' corners held out of the tissue (``effects.cone_corners = "held"``).

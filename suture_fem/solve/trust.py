@@ -32,11 +32,12 @@ unilateral (2-D) the model also keeps each open pair's penalty on its linearised
 open pairs is solved again with them joined (:mod:`~suture_fem.physics.effects.cone_model`): without them the
 trust region refused every step that pressed a node lying 0.3 um off its cone and crawled toward it.
 
-Used only where SNES's solve failed, from that solve's start (``solver.trust_region``): "auto" where the
-cones' Jacobian is convexified (P2 unilateral cones, whose ramps stopped near 1 N) and for the unilateral
-cones in 3-D (``ConeContact.safeguarded``; they stopped at 0.21 of 0.5 N without it), "on" for every solve
-with the energy objective and LDL^T, "off" never. A scene it does not touch is solved bit for bit as
-without it.
+Used only where SNES's solve failed, from that solve's start (``solver.trust_region``): "auto" for the
+unilateral (frictionless or Coulomb) cones: at P2, whose ramps stopped near 1 N without it; in 3-D, where they
+stopped at 0.21 of 0.5 N; at P1 since 2026-12-05, where it took the paper scene's cutbacks away (docs/contact.md,
+"The trust region for the P1 cones"); "on" for every solve with the energy objective and LDL^T (on the sliding
+cones and the P1 threads it cost more than it saved), "off" never. A scene it does not touch is solved bit for
+bit as without it.
 
 Hand-written: PETSc 3.18's SNESNEWTONTR is the MINPACK trust region on the residual's norm, not on an
 objective, and bounds its step by ending a Krylov solve early (a direct factorisation is not bounded);
@@ -102,7 +103,7 @@ class TrustRegion:
         """The fallback ``solver.trust_region`` asks for, or None (off, or no energy objective or LDL^T)."""
         mode = newton.options.trust_region
         contact = getattr(newton.physics, "cone_contact", None)
-        wanted = mode == "on" or (mode == "auto" and contact is not None and contact.safeguarded)
+        wanted = mode == "on" or (mode == "auto" and contact is not None and not contact.bilateral)
         usable = newton.objective_form is not None and newton.options.inertia_correction
         return cls(newton) if wanted and usable else None
 

@@ -172,20 +172,21 @@ def test_after_solves_again_from_the_failed_solve_s_start():
     assert region.record["solves"] == 1
 
 
-@pytest.mark.parametrize(("mode", "convexified", "objective", "built"), [
+@pytest.mark.parametrize(("mode", "unilateral", "objective", "built"), [
     ("off", True, True, False),
-    ("auto", True, True, True),
-    ("auto", False, True, False),  # P1 cones: their Jacobian is exact
+    ("auto", True, True, True),  # frictionless or Coulomb cones, P1 or P2, 2-D or 3-D
+    ("auto", False, True, False),  # sliding cones
     ("auto", None, True, False),  # no cones' contact
     ("on", None, True, True),
+    ("on", False, True, True),
     ("on", None, False, False),  # no energy to judge a step by
 ])
-def test_which_scenes_get_the_trust_region(mode, convexified, objective, built):
+def test_which_scenes_get_the_trust_region(mode, unilateral, objective, built):
     fake = _Fake((0.0, 0.5))
     fake.options.trust_region = mode
-    if convexified is not None:
-        fake.physics.cone_contact = SimpleNamespace(convexified=convexified, safeguarded=convexified,  # as in 2-D
-                                                    bilateral=True)  # no gap model
+    if unilateral is not None:
+        fake.physics.cone_contact = SimpleNamespace(bilateral=not unilateral)
+        fake.physics.mesh = SimpleNamespace(geometry=SimpleNamespace(dim=3))  # no gap model (2-D's)
     fake.objective_form = object() if objective else None
     assert (trust.TrustRegion.of(fake) is not None) is built
 

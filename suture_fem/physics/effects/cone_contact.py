@@ -101,7 +101,7 @@ class ConeContact(SlipBound):
         self.touch_holds, self.depth_limit = touch_holds, DEPTH_FRACTION * float(wall_m)
         self._reach = 0.5 * float(wall_m) - self.depth_limit  # a shorter move from the limit cannot pass the mid-plane
         self.convexified = convexified and not self.bilateral
-        self.safeguarded = self.convexified  # swapping pairs boosted, the trust region: P2; 3-D too (:meth:`on`)
+        self.safeguarded = self.convexified  # swapping pairs boosted: P2; 3-D too (:meth:`on`)
         self.mu, self.slip = (float(mu) if model == "coulomb" else 0.0), float(slip_m)
         self.nodes, self.dofs, self.position = pairs["nodes"], pairs["dofs"], pairs["X"]
         self.X = cone_frame.place(self.position)[0]

@@ -35,7 +35,8 @@ trust region refused every step that pressed a node lying 0.3 um off its cone an
 Used only where SNES's solve failed, from that solve's start (``solver.trust_region``): "auto" for the
 unilateral (frictionless or Coulomb) cones: at P2, whose ramps stopped near 1 N without it; in 3-D, where they
 stopped at 0.21 of 0.5 N; at P1 since 2026-12-05, where it took the paper scene's cutbacks away (docs/contact.md,
-"The trust region for the P1 cones"); "on" for every solve with the energy objective and LDL^T (on the sliding
+"The trust region for the P1 cones"), but not with the thread free too (nothing tied: not finished within 900 s
+where Newton alone stops in 233 s); "on" for every solve with the energy objective and LDL^T (on the sliding
 cones and the P1 threads it cost more than it saved), "off" never. A scene it does not touch is solved bit for
 bit as without it.
 
@@ -103,7 +104,9 @@ class TrustRegion:
         """The fallback ``solver.trust_region`` asks for, or None (off, or no energy objective or LDL^T)."""
         mode = newton.options.trust_region
         contact = getattr(newton.physics, "cone_contact", None)
-        wanted = mode == "on" or (mode == "auto" and contact is not None and not contact.bilateral)
+        free_thread = bool(getattr(getattr(newton.physics, "effects", None), "thread_track", False))  # nothing tied
+        cones = contact is not None and not contact.bilateral and (contact.safeguarded or not free_thread)
+        wanted = mode == "on" or (mode == "auto" and cones)
         usable = newton.objective_form is not None and newton.options.inertia_correction
         return cls(newton) if wanted and usable else None
 

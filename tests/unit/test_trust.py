@@ -172,20 +172,24 @@ def test_after_solves_again_from_the_failed_solve_s_start():
     assert region.record["solves"] == 1
 
 
-@pytest.mark.parametrize(("mode", "unilateral", "objective", "built"), [
-    ("off", True, True, False),
-    ("auto", True, True, True),  # frictionless or Coulomb cones, P1 or P2, 2-D or 3-D
-    ("auto", False, True, False),  # sliding cones
-    ("auto", None, True, False),  # no cones' contact
-    ("on", None, True, True),
-    ("on", False, True, True),
-    ("on", None, False, False),  # no energy to judge a step by
+@pytest.mark.parametrize(("mode", "unilateral", "objective", "flags", "built"), [
+    ("off", True, True, (False, False), False),
+    ("auto", True, True, (False, False), True),  # frictionless or Coulomb cones at P1
+    ("auto", True, True, (False, True), False),  # ... with the thread free too (nothing tied)
+    ("auto", True, True, (True, True), True),  # ... at P2 or in 3-D (safeguarded)
+    ("auto", False, True, (False, False), False),  # sliding cones
+    ("auto", None, True, (False, False), False),  # no cones' contact
+    ("on", None, True, (False, False), True),
+    ("on", False, True, (False, True), True),
+    ("on", None, False, (False, False), False),  # no energy to judge a step by
 ])
-def test_which_scenes_get_the_trust_region(mode, unilateral, objective, built):
+def test_which_scenes_get_the_trust_region(mode, unilateral, objective, flags, built):
     fake = _Fake((0.0, 0.5))
     fake.options.trust_region = mode
+    safeguarded, thread_track = flags  # P2 or 3-D; the thread free in its track
+    fake.physics.effects = SimpleNamespace(thread_track=thread_track)
     if unilateral is not None:
-        fake.physics.cone_contact = SimpleNamespace(bilateral=not unilateral)
+        fake.physics.cone_contact = SimpleNamespace(bilateral=not unilateral, safeguarded=safeguarded)
         fake.physics.mesh = SimpleNamespace(geometry=SimpleNamespace(dim=3))  # no gap model (2-D's)
     fake.objective_form = object() if objective else None
     assert (trust.TrustRegion.of(fake) is not None) is built

@@ -233,9 +233,9 @@ class TrustRegion:
 
         Backtracking inside the trust region (Nocedal and Yuan 1998): most refusals on the P2 cones are a trial
         state that inverts an element beside a rim, after the radius grew; a shorter step along p costs an
-        energy evaluation where a new radius costs factorisations. Kept: p scaled, the radius its length. Returns
-        (kept, its energy, |p|, its prediction) as the caller's; unchanged where none is kept (the last one tried's
-        energy and prediction).
+        energy evaluation where a new radius costs factorisations. Kept: p scaled, the radius its length (grown from
+        there by the caller as after any step). Returns (kept, its energy, |p|, its prediction) as the caller's;
+        unchanged where none is kept (the last one tried's energy and prediction).
         """
         newton = self.newton
         gp, pAp = g.dot(w.p), w.p.dot(w.Ap)  # Ap: A p, the caller's prediction's

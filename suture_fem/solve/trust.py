@@ -36,9 +36,9 @@ Used only where SNES's solve failed, from that solve's start (``solver.trust_reg
 unilateral (frictionless or Coulomb) cones: at P2, whose ramps stopped near 1 N without it; in 3-D, where they
 stopped at 0.21 of 0.5 N; at P1 since 2026-12-05, where it took the paper scene's cutbacks away (docs/contact.md,
 "The trust region for the P1 cones"), but not with the thread free too (nothing tied: not finished within 900 s
-where Newton alone stops in 233 s); "on" for every solve with the energy objective and LDL^T (on the sliding
-cones and the P1 threads it cost more than it saved), "off" never. A scene it does not touch is solved bit for
-bit as without it.
+where Newton alone stops at 4.9 of 8 mm in 416 s); "on" for every solve with the energy objective and LDL^T
+(on the sliding cones and the P1 threads it cost more than it saved), "off" never. A scene it does not touch is
+solved bit for bit as without it.
 
 Hand-written: PETSc 3.18's SNESNEWTONTR is the MINPACK trust region on the residual's norm, not on an
 objective, and bounds its step by ending a Krylov solve early (a direct factorisation is not bounded);

@@ -34,7 +34,7 @@ trust region refused every step that pressed a node lying 0.3 um off its cone an
 
 Used only where SNES's solve failed, from that solve's start (``solver.trust_region``): "auto" for the
 unilateral (frictionless or Coulomb) cones: at P2, whose ramps stopped near 1 N without it; in 3-D, where they
-stopped at 0.21 of 0.5 N; at P1 since 2026-12-05, where it took the paper scene's cutbacks away (docs/contact.md,
+stopped at 0.21 of 0.5 N; at P1, where it took the paper scene's cutbacks away (docs/contact.md,
 "The trust region for the P1 cones"), but not with the thread free too (nothing tied: not finished within 900 s
 where Newton alone stops at 4.9 of 8 mm in 416 s); "on" for every solve with the energy objective and LDL^T
 (on the sliding cones and the P1 threads it cost more than it saved), "off" never. A scene it does not touch is

@@ -95,7 +95,7 @@ def _serial_and_parallel(tmp_path_factory, name: str, scene: list[str]) -> tuple
 @pytest.mark.long  # about 4 CPU minutes (benchmarks/long_tests.py)
 def test_two_ranks_give_the_serial_frictionless_cones(tmp_path_factory):
     """The unilateral cones in 3-D on 2 ranks to 0.3 N, through solves the trust region takes over (checked): the
-    same numbers as serial, the same open, slipping and boosted pairs (passed in 5 min 10 s, 2026-12-05)."""
+    same numbers as serial, the same open, slipping and boosted pairs (about 5 minutes: marked long)."""
     scene = [*COARSE_3D, 'effects.cone_interface="frictionless"', "loading.force_n=0.3",
              "loading.report_forces_n=[0.15]"]
     serial, parallel = _serial_and_parallel(tmp_path_factory, "frictionless_cones", scene)

@@ -105,22 +105,21 @@ def test_without_down_a_start_that_has_no_negative_pivot_is_taken_in_one_factori
     # [[1, 1.5], [1.5, 1]] x (1 + tau) on the diagonal: definite from tau = 1 (1 + tau > 1.5) on the tenfold ladder;
     # from tau = 10 the search down finds 1 (10 and 1 have none, 0.1 has one, 1 again); without it, 10 in one
     milder = np.array([[1.0, 1.5, 0.0], [1.5, 1.0, 0.0], [0.0, 0.0, 5.0]])
-    results = []
-    for down in (True, False):
+
+    def search(start: int, down: bool) -> tuple[int | None, int]:
         ksp, A = _ksp_and_matrix(milder)
         original = A.getDiagonal()
         scale = original.copy()
         scale.abs()
-        results.append(inertia.smallest_shift(ksp, A, original, scale, inertia.SHIFTS, 5, down=down))
+        found = inertia.smallest_shift(ksp, A, original, scale, inertia.SHIFTS, start, down=down)
         assert inertia.negative_pivots(ksp) == 0
-        assert _diagonal(A) == pytest.approx(np.diag(milder) * (1.0 + inertia.SHIFTS[results[-1][0]]))
+        assert _diagonal(A) == pytest.approx(np.diag(milder) * (1.0 + inertia.SHIFTS[found[0]]))
+        return found
+
     assert inertia.SHIFTS[5] == pytest.approx(10.0)
-    assert results == [(4, 4), (5, 1)]
-    ksp, A = _ksp_and_matrix(milder)  # below the smallest, the search goes up either way
-    original = A.getDiagonal()
-    scale = original.copy()
-    scale.abs()
-    assert inertia.smallest_shift(ksp, A, original, scale, inertia.SHIFTS, 2, down=False) == (4, 3)
+    assert search(5, down=True) == (4, 4)
+    assert search(5, down=False) == (5, 1)
+    assert search(2, down=False) == (4, 3)  # below the smallest, the search goes up either way
 
 
 def test_positive_definite_factorises_and_reads_the_inertia():

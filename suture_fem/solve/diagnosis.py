@@ -142,10 +142,6 @@ def _thread_advice(effects: Any) -> str:
         return ('; a Coulomb thread reaches 4 N at P2 under force control (paper scene, mu 0.1, 1 and 4 cones; '
                 'mu 0.3, 1 cone), and with loading.control = "displacement" at P1 (4 cones, 4.1 N) and P2 (1 cone, '
                 '8 mm)')
-    if effects.mixed:
-        return ("; the tissue opens off a frictionless thread just ahead of a cone's apex and that corner "
-                "distorts; the mixed formulation stops there (paper scene, P2: 0.82 N), "
-                'effects.incompressibility = "displacement" reaches 4 N at P1 and P2 (docs/contact.md)')
     return ("; the tissue opens off a frictionless thread just ahead of a cone's apex, where it stays tied to the "
             "cone, and that corner distorts (CONTACT.md: CalculiX stops there too; docs/contact.md): the paper "
             'scene reaches 4 N under force control at P1 and P2, or use effects.thread_interface = "sliding"')

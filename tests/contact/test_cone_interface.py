@@ -244,7 +244,9 @@ def test_two_ranks_give_the_serial_frictionless_cone(tmp_path_factory, frictionl
 
 
 @pytest.mark.parametrize("more, named", [(["geometry.cones=0"], "geometry.cones"),
-                                         (["effects.inertia=true"], "effects.inertia")])
+                                         (["effects.inertia=true"], "effects.inertia"),
+                                         (["mesh.degree=2", 'effects.incompressibility="mixed"'],
+                                          "effects.incompressibility")])
 def test_a_cone_interface_it_cannot_honour_is_refused_in_one_line(tmp_path, more, named):
     proc = cli(["run", "paper", *sets([*_cones("frictionless"), *more]), "--out", str(tmp_path / "out")])
     assert proc.returncode == 2

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+import pytest
+
 from suture_fem.physics.materials import Limit
 from suture_fem.solve.diagnosis import advice
 from suture_fem.support.errors import StopCause
@@ -15,11 +17,25 @@ def physics(degree=2, mixed=False, thread=True, friction=False, cones=False, tra
     return SimpleNamespace(effects=effects, degree=degree)
 
 
-def test_a_frictionless_thread_in_the_mixed_formulation_is_pointed_to_the_displacement_formulation():
-    text = advice(physics(mixed=True), StopCause.INVERTED_ELEMENT)
-    assert 'effects.incompressibility = "displacement" reaches 4 N' in text and "0.82 N" in text
+def test_a_frictionless_thread_gets_the_thread_advice_not_the_tissue_advice():
     plain = advice(physics(), StopCause.INVERTED_ELEMENT)
     assert "incompressibility" not in plain and 'effects.thread_interface = "sliding"' in plain
+
+
+def test_the_mixed_formulation_with_unilateral_contact_is_refused_before_meshing():
+    from suture_fem import Scene
+    from suture_fem.physics.effects.record import check_scene  # what Model and the CLI run before meshing
+    from suture_fem.support.errors import SceneError
+
+    mixed = {"mesh.degree": 2, "effects.incompressibility": "mixed"}
+    for key, model in [(key, model) for key in ("thread", "cone") for model in ("frictionless", "coulomb")]:
+        scene = Scene.builtin("paper").with_values({**mixed, f"effects.{key}_interface": model})
+        with pytest.raises(SceneError, match=rf'"mixed" needs .* got effects.{key}_interface = "{model}"; use') as err:
+            check_scene(scene)
+        assert "\n" not in str(err.value)
+    for model in ("tied", "sliding"):  # allowed: bilateral interfaces
+        check_scene(Scene.builtin("paper").with_values({**mixed, "effects.thread_interface": model,
+                                                        "effects.cone_interface": model}))
 
 
 def test_no_contact_advice_for_a_stop_it_does_not_explain():

@@ -14,6 +14,8 @@ from suture_fem.support.errors import SceneError
 
 #: The output quantities a scene may request (``output.quantities``), in the order they are computed.
 QUANTITIES = OUTPUT_QUANTITIES
+#: The interface models under which the tissue may leave the suture (a penalty against penetration only).
+UNILATERAL = ("frictionless", "coulomb")
 #: Why the hold is not solved when nothing in the scene depends on the rate.
 HOLD_SKIPPED = (
     "hold skipped: no rate-dependent effect in the scene (inertia off, every material rate-independent), "
@@ -84,7 +86,7 @@ class Effects:
     @property
     def unilateral_thread(self) -> bool:
         """The tissue may leave the thread (``effects.thread_interface = "frictionless"`` or ``"coulomb"``)."""
-        return self.thread_interface in ("frictionless", "coulomb")
+        return self.thread_interface in UNILATERAL
 
     @property
     def frictional_thread(self) -> bool:
@@ -188,6 +190,15 @@ def check_scene(scene: Scene) -> None:
         raise SceneError(
             'scene key effects.incompressibility = "mixed" needs mesh.degree = 2 (Taylor-Hood P2/P1 is the stable '
             "pair; P1/P0 and P1/P1 are not), got mesh.degree = 1"
+        )
+    unilateral = [f'{side}_interface = "{model}"' for side, model in
+                  (("thread", e.thread_interface), ("cone", e.cone_interface)) if model in UNILATERAL]
+    if e.incompressibility == "mixed" and unilateral:
+        raise SceneError(
+            'scene key effects.incompressibility = "mixed" needs effects.thread_interface and effects.cone_interface '
+            '"tied" or "sliding" (its u-p equations are no energy\'s variation, so no energy line search nor trust '
+            "region carries unilateral contact: the paper scene's ramps stopped at 0.20-0.82 N); got effects."
+            + " and effects.".join(unilateral) + '; use effects.incompressibility = "displacement"'
         )
     if e.inertia and e.time_step_s > scene.loading.ramp_s + scene.loading.hold_s:
         raise SceneError(

@@ -11,6 +11,7 @@ import numpy as np
 
 from suture_fem.physics.effects import fixed_point
 from suture_fem.physics.effects.fixed_point import settle
+from suture_fem.physics.effects.friction import SlipBound
 
 K, F, C, MU, TOL = 2.0, 1.0, 0.8, 0.3, 1e-12
 
@@ -42,30 +43,15 @@ class Model:
         return True
 
 
-class Law:
-    """A Coulomb law's part of SlipBound (the same update: Aitken-relaxed, residual before it)."""
+class Law(SlipBound):
+    """A Coulomb law: the package's SlipBound (its updates), on the scalar model's pressure."""
 
     def __init__(self, model):
         self.comm, self.mu, self.model = Comm(), MU, model
         self.weight, self.bound = np.array([1.0]), np.array([0.0])
-        self.last_residual = self.last_change = math.inf
-
-    def start(self):
-        self._aitken = fixed_point.Aitken(self.comm)
 
     def pressure(self):
         return np.array([C * self.model.x])
-
-    def residual(self):
-        return float(abs(self.mu * self.pressure()[0] - self.bound[0]))
-
-    def update(self, tolerance):
-        r = self.weight * (self.mu * self.pressure() - self.bound)
-        self.last_residual = float(np.linalg.norm(r))
-        old = self.bound
-        self.bound = np.maximum(self.bound + self._aitken.factor(r) * r / self.weight, 0.0)
-        self.last_change = float(np.linalg.norm(self.bound - old) / np.linalg.norm(self.bound))
-        return self.last_residual <= tolerance
 
 
 def _run(chord, bound=0.09):
@@ -96,15 +82,46 @@ def test_no_chord_step_after_an_update_that_moved_the_bound_by_more_than_half_of
     model.law = law = Law(model)
     law.update = lambda tolerance: (setattr(law, "last_change", 1.0), setattr(law, "last_residual", 1.0), False)[2]
     settle([law], model.solve_once, lambda: TOL, model.chord)
-    assert model.chords == 0 and model.solves == fixed_point.FIXED_POINT_SOLVES + 1
+    assert model.chords == 0 and model.solves == 2 * fixed_point.FIXED_POINT_SOLVES + 1  # Aitken's, Anderson's
 
 
-def test_a_fixed_point_that_does_not_settle_fails_the_step_after_its_solves():
+def test_a_fixed_point_that_does_not_settle_fails_the_step_after_its_solves_under_both_accelerations():
     model = Model()
     model.law = law = Law(model)
     law.update = lambda tolerance: False  # never holds
     ok, _, reason = settle([law], model.solve_once, lambda: TOL, None)
+    assert not ok and reason == fixed_point.NOT_SETTLED and law.anderson
+    assert model.solves == 2 * fixed_point.FIXED_POINT_SOLVES + 1
+    model.solves = 0  # the ramp's next step: Anderson's from its start, no second round of Aitken's
+    ok, _, reason = settle([law], model.solve_once, lambda: TOL, None)
     assert not ok and reason == fixed_point.NOT_SETTLED and model.solves == fixed_point.FIXED_POINT_SOLVES + 1
+    law.reset()  # a new ramp: Aitken's again
+    assert not law.anderson
+
+
+class Locking(SlipBound):
+    """Two pairs: one whose friction presses it harder as its bound grows (mu p = 1.25 b - 2.5: b = 10 repels the
+    plain update), one whose pressure falls as its bound grows (mu p = 9 - 0.8 b: b = 5, the plain update swaps)."""
+
+    def __init__(self):
+        self.comm, self.mu = Comm(), 1.0
+        self.weight, self.bound = np.ones(2), np.array([9.5, 1.0])
+
+    def pressure(self):
+        return np.array([1.25 * self.bound[0] - 2.5, 9.0 - 0.8 * self.bound[1]])
+
+
+def test_anderson_settles_a_bound_that_aitken_s_one_factor_cannot():
+    law, solves = Locking(), []
+
+    def solve_once(loose=0.0):
+        solves.append(loose)
+        return True, 1, "CONVERGED_FNORM_ABS"
+
+    ok, _, reason = settle([law], solve_once, lambda: 1e-10, None)
+    assert ok and law.anderson  # Aitken's 30 solves did not settle it, Anderson's did
+    assert np.allclose(law.bound, [10.0, 5.0], rtol=0.0, atol=1e-9)
+    assert len(solves) < 2 * fixed_point.FIXED_POINT_SOLVES + 1
 
 
 class Multiplier:

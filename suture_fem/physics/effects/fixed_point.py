@@ -13,6 +13,12 @@ Coulomb"). Where no Coulomb bound is updated (frictionless cones, the thread tie
 multipliers take the same chord steps (their Jacobian depends on them only through the rims' curvature term)
 after a first full solve (an inexact one moved four cones' 2 N state to the other of its two equilibria,
 docs/contact.md "Two equilibria"); beside a Coulomb bound its measures decide, as before.
+
+Where a Coulomb bound has not settled after :data:`FIXED_POINT_SOLVES` solves under Aitken's factor, its
+updates go on under Anderson's acceleration (:class:`Anderson`) for as many solves again, and do so for the
+rest of the ramp (a pair whose friction presses it harder as its bound grows makes the plain update
+diverge, and Aitken's one factor cannot serve that pair and its oscillating neighbours at once:
+docs/contact.md, "A large coefficient"). A ramp whose bounds always settle is solved as before, bit for bit.
 """
 
 from __future__ import annotations
@@ -78,6 +84,42 @@ class Aitken:
         return self._omega
 
 
+#: Anderson's acceleration keeps this many last updates (its least squares' columns).
+ANDERSON_DEPTH = 5
+
+
+class Anderson:
+    """Anderson's acceleration of the fixed point b <- b + r (Anderson 1965; Walker and Ni 2011).
+
+    SIAM J Numer Anal 49:1715. The next iterate is b + r - (dB + dR) gamma, gamma minimising |W (r - dR gamma)|,
+    dB and dR the differences of the last :data:`ANDERSON_DEPTH` iterates and their residuals, W the pairs' weights.
+
+    Hand-written: scipy.optimize.anderson drives its own loop over a function, where here each evaluation is
+    a Newton solve (or a chord step) inside the load stepping, on every rank.
+    """
+
+    def __init__(self, comm: Any, depth: int = ANDERSON_DEPTH):
+        """``comm``: the residuals' communicator (each rank holds its part)."""
+        self.comm, self.depth = comm, depth
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
+        self._db: list[np.ndarray] = []
+        self._dr: list[np.ndarray] = []
+
+    def next(self, b: np.ndarray, r: np.ndarray, weight: np.ndarray) -> np.ndarray:
+        """The next iterate from ``b`` and its residual ``r`` (this rank's parts; collective)."""
+        if self._last is not None and len(self._last[0]) == len(b):
+            self._db = [*self._db, b - self._last[0]][-self.depth:]
+            self._dr = [*self._dr, r - self._last[1]][-self.depth:]
+        self._last = (b.copy(), r.copy())
+        if not self._dr:
+            return b + r
+        dr, db = np.column_stack(self._dr), np.column_stack(self._db)
+        wdr = dr * weight[:, None]
+        normal, right = self.comm.allreduce(wdr.T @ wdr), self.comm.allreduce(wdr.T @ (weight * r))
+        gamma = np.linalg.lstsq(normal, right, rcond=1e-12)[0]
+        return b + r - (db + dr) @ gamma
+
+
 class Reversals:
     """Which entries of a fixed-point update swap: reverse the sign of their last update without halving it.
 
@@ -121,15 +163,35 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
     :data:`CHORD_BOUND_CHANGE` of itself (:func:`_chord_on`; the Coulomb bounds' ``last_residual`` and
     ``last_change``, or with no Coulomb bound the augmented Lagrangians' multipliers'); the answer is always that of
     a last solve to the full tolerance after which the laws held. Returns the last solve's (converged, reason)
-    with the Newton iterations summed; bounds that have not settled after :data:`FIXED_POINT_SOLVES` solves
-    (and as many chord steps) fail the step (:data:`NOT_SETTLED`), so the load stepping cuts it.
+    with the Newton iterations summed; Coulomb bounds that have not settled after :data:`FIXED_POINT_SOLVES`
+    solves (and as many chord steps) go on under Anderson's acceleration (the module's docstring) for as many
+    again; not settled then, the step fails (:data:`NOT_SETTLED`), so the load stepping cuts it.
     """
     coulomb = [law for law in laws if law.mu > 0.0]
-    fixed = coulomb or laws  # what decides a chord step: a Coulomb bound where there is one, else the multipliers
     loose = FORCING * max(law.residual() for law in coulomb) if coulomb and chord is not None else 0.0
     converged, its, reason = solve_once(loose)
     for law in laws:
         law.start()
+    done, its, reason = _updates(laws, solve_once, tolerance, chord, (converged, its, reason), loose)
+    if done is None and coulomb and not all(law.anderson for law in coulomb):
+        log.info("friction bound not settled after %d solves: Anderson's acceleration from here on, this ramp",
+                 FIXED_POINT_SOLVES)
+        for law in coulomb:
+            law.accelerate()
+        done, its, reason = _updates(laws, solve_once, tolerance, chord, (True, its, reason), 0.0)
+    return (False, its, NOT_SETTLED) if done is None else (done, its, reason)
+
+
+def _updates(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, str]],
+             tolerance: Callable[[], float], chord: Callable[[], bool] | None, first: tuple[bool, int, str],
+             loose: float) -> tuple[bool | None, int, str]:
+    """The laws' updates and solves of :func:`settle` from the solve ``first`` (converged, iterations, reason).
+
+    Returns (converged, iterations, reason); converged None when the laws have not settled after
+    :data:`FIXED_POINT_SOLVES` solves, the last of them converged.
+    """
+    fixed = [law for law in laws if law.mu > 0.0] or laws  # what decides a chord step: a Coulomb bound's measures
+    converged, its, reason = first
     solves, chords, solved, last = 1, 0, True, math.inf
     while solves <= FIXED_POINT_SOLVES:
         if not converged:
@@ -148,7 +210,7 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
         loose = 0.0
         converged, more, reason = solve_once(loose)
         its, solves, solved = its + more, solves + 1, True
-    return False, its, NOT_SETTLED
+    return (None if converged else False), its, NOT_SETTLED
 
 
 def _chord_on(chord: Callable[[], bool] | None, held: bool, now: float, last: float, change: float,

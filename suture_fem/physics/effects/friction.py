@@ -59,7 +59,7 @@ from suture_fem.geometry.regions import Facet
 from suture_fem.physics import kinematics
 from suture_fem.physics.constraints import mark_dofs
 from suture_fem.physics.effects.contact import radial
-from suture_fem.physics.effects.fixed_point import Aitken, update_norms
+from suture_fem.physics.effects.fixed_point import Aitken, Anderson, update_norms
 from suture_fem.physics.effects.pattern import widen
 from suture_fem.physics.forms import measures
 from suture_fem.physics.residual_memo import ResidualMemo
@@ -84,6 +84,8 @@ class SlipBound:
     last_residual: float = math.inf
     #: the last update's change of the bound relative to the bound (2-norms of w b): 1 from a bound of 0
     last_change: float = math.inf
+    #: the updates go under Anderson's acceleration (from a step whose bound Aitken's did not settle, to the ramp's end)
+    anderson: bool = False
 
     def pressure(self) -> np.ndarray:
         """The contact pressure at each pair now (Pa)."""
@@ -92,6 +94,12 @@ class SlipBound:
     def start(self) -> None:
         """Forget the fixed point's history (a new load step's solve)."""
         self._aitken = Aitken(self.comm)
+        self._anderson = Anderson(self.comm) if self.anderson else None
+
+    def accelerate(self) -> None:
+        """From now on (this ramp) Anderson's acceleration, from the bound as it is (:func:`.fixed_point.settle`)."""
+        self.anderson = True
+        self._anderson = Anderson(self.comm)
 
     def update(self, tolerance: float) -> bool:
         """One update between Newton solves; True when the law held to ``tolerance`` (N) before it (collective)."""
@@ -106,8 +114,9 @@ class SlipBound:
         self.bound = kept[0].copy()
 
     def reset(self) -> None:
-        """At rest: no contact pressure yet, so no slip bound."""
+        """At rest: no contact pressure yet, so no slip bound (and Aitken's factor again)."""
         self.bound[:] = 0.0
+        self.anderson = False
 
     def residual(self) -> float:
         """How far the friction forces are from Coulomb's law: the 2-norm over the track of w |mu p - bound| (N)."""
@@ -123,12 +132,14 @@ class SlipBound:
         Tuck 1969; Kuettler and Wall, Comput Mech 43:61, 2008), omega_k = -omega_{k-1} r_{k-1} . (r_k -
         r_{k-1}) / |r_k - r_{k-1}|^2, r the residual forces: a node that opens under a larger bound and
         closes under a smaller one makes the plain iteration cycle, and a steep pressure-to-bound map
-        makes it diverge.
+        makes it diverge. After :meth:`accelerate`, Anderson's acceleration instead (:class:`.fixed_point.Anderson`).
         """
         r = self._gap_forces()
-        omega = self._aitken.factor(r)
-        old = self.bound
-        self.bound = np.maximum(self.bound + omega * r / np.maximum(self.weight, 1e-300), 0.0)
+        old, area = self.bound, np.maximum(self.weight, 1e-300)
+        if self._anderson is not None:
+            self.bound = np.maximum(self._anderson.next(old, r / area, self.weight), 0.0)
+        else:
+            self.bound = np.maximum(old + self._aitken.factor(r) * r / area, 0.0)
         self.last_residual, self.last_change = update_norms(self.comm, r, self.weight * (self.bound - old),
                                                         self.weight * self.bound)
         return self.last_residual

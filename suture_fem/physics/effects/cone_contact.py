@@ -293,8 +293,8 @@ class ConeContact(SlipBound):
             self.held.multiplier = kept[2].copy()
 
     def reset(self) -> None:
-        """At rest: no pressure, no slip bound (and Aitken's factor again), no multiplier."""
-        self.bound[:], self.anderson = 0.0, False
+        """At rest: no pressure, no slip bound, no multiplier."""
+        self.bound[:] = 0.0
         self.multiplier[:], self.boost[:] = 0.0, 1.0
         if self.held:
             self.held.multiplier[:] = 0.0

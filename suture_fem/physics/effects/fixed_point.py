@@ -14,11 +14,11 @@ multipliers take the same chord steps (their Jacobian depends on them only throu
 after a first full solve (an inexact one moved four cones' 2 N state to the other of its two equilibria,
 docs/contact.md "Two equilibria"); beside a Coulomb bound its measures decide, as before.
 
-Where a Coulomb bound has not settled after :data:`FIXED_POINT_SOLVES` solves under Aitken's factor, its
-updates go on under Anderson's acceleration (:class:`Anderson`) for as many solves again, and do so for the
-rest of the ramp (a pair whose friction presses it harder as its bound grows makes the plain update
-diverge, and Aitken's one factor cannot serve that pair and its oscillating neighbours at once:
-docs/contact.md, "A large coefficient"). A ramp whose bounds always settle is solved as before, bit for bit.
+Where a Coulomb bound has not settled after :data:`FIXED_POINT_SOLVES` solves under Aitken's factor, that
+step's updates go on under Anderson's acceleration (:class:`Anderson`) for as many solves again (a pair whose
+friction presses it harder as its bound grows makes the plain update diverge, and Aitken's one factor cannot
+serve that pair and its oscillating neighbours at once: docs/contact.md, "A large coefficient"); the next step
+starts under Aitken's again. A step whose bounds settle under Aitken's is solved as before, bit for bit.
 """
 
 from __future__ import annotations
@@ -173,8 +173,8 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
     for law in laws:
         law.start()
     done, its, reason = _updates(laws, solve_once, tolerance, chord, (converged, its, reason), loose)
-    if done is None and coulomb and not all(law.anderson for law in coulomb):
-        log.info("friction bound not settled after %d solves: Anderson's acceleration from here on, this ramp",
+    if done is None and coulomb:
+        log.info("friction bound not settled after %d solves: Anderson's acceleration for this step",
                  FIXED_POINT_SOLVES)
         for law in coulomb:
             law.accelerate()

@@ -84,8 +84,6 @@ class SlipBound:
     last_residual: float = math.inf
     #: the last update's change of the bound relative to the bound (2-norms of w b): 1 from a bound of 0
     last_change: float = math.inf
-    #: the updates go under Anderson's acceleration (from a step whose bound Aitken's did not settle, to the ramp's end)
-    anderson: bool = False
 
     def pressure(self) -> np.ndarray:
         """The contact pressure at each pair now (Pa)."""
@@ -94,12 +92,16 @@ class SlipBound:
     def start(self) -> None:
         """Forget the fixed point's history (a new load step's solve)."""
         self._aitken = Aitken(self.comm)
-        self._anderson = Anderson(self.comm) if self.anderson else None
+        self._anderson: Anderson | None = None
 
     def accelerate(self) -> None:
-        """From now on (this ramp) Anderson's acceleration, from the bound as it is (:func:`.fixed_point.settle`)."""
-        self.anderson = True
+        """For the rest of this step, Anderson's acceleration from the bound as it is (:func:`.fixed_point.settle`)."""
         self._anderson = Anderson(self.comm)
+
+    @property
+    def accelerated(self) -> bool:
+        """This step's updates go under Anderson's acceleration (:meth:`accelerate`)."""
+        return self._anderson is not None
 
     def update(self, tolerance: float) -> bool:
         """One update between Newton solves; True when the law held to ``tolerance`` (N) before it (collective)."""
@@ -114,9 +116,8 @@ class SlipBound:
         self.bound = kept[0].copy()
 
     def reset(self) -> None:
-        """At rest: no contact pressure yet, so no slip bound (and Aitken's factor again)."""
+        """At rest: no contact pressure yet, so no slip bound."""
         self.bound[:] = 0.0
-        self.anderson = False
 
     def residual(self) -> float:
         """How far the friction forces are from Coulomb's law: the 2-norm over the track of w |mu p - bound| (N)."""

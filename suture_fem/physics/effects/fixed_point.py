@@ -110,6 +110,8 @@ class Anderson:
         if self._last is not None and len(self._last[0]) == len(b):
             self._db = [*self._db, b - self._last[0]][-self.depth:]
             self._dr = [*self._dr, r - self._last[1]][-self.depth:]
+        else:  # a first update, or other pairs: no history to extrapolate from
+            self._db, self._dr = [], []
         self._last = (b.copy(), r.copy())
         if not self._dr:
             return b + r
@@ -172,25 +174,27 @@ def settle(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, s
     converged, its, reason = solve_once(loose)
     for law in laws:
         law.start()
-    done, its, reason = _updates(laws, solve_once, tolerance, chord, (converged, its, reason), loose)
+    fixed = coulomb or laws  # what decides a chord step: a Coulomb bound where there is one, else the multipliers
+    done, its, reason = _updates(laws, fixed, solve_once, tolerance, chord, (converged, its, reason), loose)
     if done is None and coulomb:
         log.info("friction bound not settled after %d solves: Anderson's acceleration for this step",
                  FIXED_POINT_SOLVES)
         for law in coulomb:
             law.accelerate()
-        done, its, reason = _updates(laws, solve_once, tolerance, chord, (True, its, reason), 0.0)
+        done, its, reason = _updates(laws, fixed, solve_once, tolerance, chord, (True, its, reason), 0.0)
     return (False, its, NOT_SETTLED) if done is None else (done, its, reason)
 
 
-def _updates(laws: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, str]],
+def _updates(laws: Sequence[Any], fixed: Sequence[Any], solve_once: Callable[[float], tuple[bool, int, str]],
              tolerance: Callable[[], float], chord: Callable[[], bool] | None, first: tuple[bool, int, str],
              loose: float) -> tuple[bool | None, int, str]:
     """The laws' updates and solves of :func:`settle` from the solve ``first`` (converged, iterations, reason).
 
+    ``fixed``: the laws whose measures decide a chord step (:func:`_chord_on`).
+
     Returns (converged, iterations, reason); converged None when the laws have not settled after
     :data:`FIXED_POINT_SOLVES` solves, the last of them converged.
     """
-    fixed = [law for law in laws if law.mu > 0.0] or laws  # what decides a chord step: a Coulomb bound's measures
     converged, its, reason = first
     solves, chords, solved, last = 1, 0, True, math.inf
     while solves <= FIXED_POINT_SOLVES:

@@ -215,7 +215,7 @@ def check_scene(scene: Scene) -> None:
     if e.cone_interface != "tied" and scene.geometry.cones == 0:
         raise SceneError(f'scene key effects.cone_interface = "{e.cone_interface}" needs geometry.cones >= 1 '
                          '(there is no cone surface); use "tied" with geometry.cones = 0')
-    if e.cone_corners == "held" and e.cone_interface not in ("frictionless", "coulomb"):
+    if e.cone_corners == "held" and e.cone_interface not in UNILATERAL:
         raise SceneError(f'scene key effects.cone_corners = "held" needs effects.cone_interface = "frictionless" or '
                          f'"coulomb" (the corners of tied or sliding cones stay on the tissue), got '
                          f'"{e.cone_interface}"')

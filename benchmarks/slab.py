@@ -9,13 +9,14 @@ rung of benchmarks/three_d.py), pulled to 4 N with reports at 1, 2 and 3 N, ``--
 * ``compare``: slab (thread 3.6 mm deep: the cylinder's distance from the thread to the skin) against the 3-D
   cylinder on the same sizes, 1 and 4 cones, 1 and 4 N: USUM, the thread end, the energy, the tissue's SEQV and
   EPTOEQV (peak and outside the rims).
-* ``dimple``: the dimple depth over each cone at 1-4 N, 1 and 4 cones, thread depths 3.6 and 2.0 mm.
+* ``dimple``: the dimple depth over each cone at 1-4 N, 1 and 4 cones, thread depths 3.6 and 2.0 mm; the block's
+  end margins from ``--dimple-margins`` (the scene's 3 mm if not given: that measures the block's tilt).
 * ``margins``: the block's free end faces moved from 3 mm (geometry.margin_far_mm / margin_pull_mm, the
   cylinder's default) to farther from the cones (``--margins``, each end alone and both): the dimple over each
   cone, USUM and the skin's extremes (the tilt), 1 and 4 N.
 
     .venv/bin/python benchmarks/slab.py [--parts compare dimple width] [--factor 4] [--cones 1 4]
-        [--margins 3 10 20] [--out benchmarks/out/slab]
+        [--margins 3 10 20] [--dimple-margins 10 10] [--out benchmarks/out/slab]
 """
 
 from __future__ import annotations
@@ -41,6 +42,9 @@ DEPTHS = (3.6, 2.0)
 WIDTHS = [20.0, 40.0]
 #: The block's end margins (mm, far and pulled end alike): the default first (``--margins`` changes them).
 MARGINS = [3.0, 10.0]
+#: The block's end margins (far, pulled end; mm) of the dimple part; empty: the scene's (3 mm each). A dimple is
+#: measured with both ends at least 10 mm from the cones (docs/three-d.md, "The block's ends").
+DIMPLE_MARGINS: list[tuple[float, float]] = []
 #: Runs already made in this process, by label (the compare, width and dimple parts share some).
 DONE: dict[str, dict] = {}
 
@@ -115,11 +119,11 @@ def compare(factor: float, cones_list: list[int], tmp: Path) -> list[dict]:
 
 
 def dimple(factor: float, cones_list: list[int], tmp: Path) -> list[dict]:
-    """The dimple depth over each cone at 1-4 N, two thread depths."""
+    """The dimple depth over each cone at 1-4 N, two thread depths (the block's ends at ``DIMPLE_MARGINS``)."""
     rows = []
     for cones in cones_list:
         for depth in DEPTHS:
-            res = slab(cones, depth, WIDTHS[0], factor, tmp)
+            res = slab(cones, depth, WIDTHS[0], factor, tmp, DIMPLE_MARGINS[0] if DIMPLE_MARGINS else None)
             for force in FORCES:
                 s = state(res, force)
                 rows.append({"cones": cones, "thread_depth_mm": depth, "force_n": force, "dofs": res.get("dofs"),
@@ -162,10 +166,13 @@ def main() -> int:
     parser.add_argument("--tag", default="", help="appended to the JSON files' names")
     parser.add_argument("--widths", type=float, nargs=2, default=WIDTHS)
     parser.add_argument("--margins", type=float, nargs="+", default=MARGINS)
+    parser.add_argument("--dimple-margins", type=float, nargs=2, metavar=("FAR", "PULL"),
+                        help="the dimple part's end margins (mm); default: the scene's")
     parser.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "slab"))
     args = parser.parse_args()
     WIDTHS[:] = args.widths
     MARGINS[:] = args.margins
+    DIMPLE_MARGINS[:] = [tuple(args.dimple_margins)] if args.dimple_margins else []
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     parts = {"width": width, "compare": compare, "dimple": dimple, "margins": margins}

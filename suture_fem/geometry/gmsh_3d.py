@@ -43,8 +43,12 @@ SAMPLES = 7
 
 
 def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "suture3d", split_thread: bool = False,
-                        split_cones: bool = False) -> None:
+                        split_cones: bool = False, geometry_degree: int = 1) -> None:
     """Build and mesh the 3-D half model of the cylinder, or of the slab, in the current gmsh model (one rank only).
+
+    ``geometry_degree`` 2 makes the tetrahedra quadratic (``mesh.geometry_degree``): gmsh places their mid-edge nodes
+    on the model's surfaces, so the thread's and the layers' cylinders, the cones and the rims' tori are curved,
+    not faceted. Unlike 2-D, where only the fillet arcs are curved, every 3-D model has curved surfaces.
 
     The slab (``geometry.slab``): the three layers as boxes, the suture's pieces revolved as for the cylinder.
     ``split_thread`` gives the tissue its own nodes along the bare thread (the faces tagged ``track``),
@@ -71,6 +75,8 @@ def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "sutur
     _size_fields(g, sizes, faces)
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.generate(3)
+    if geometry_degree == 2:
+        gmsh.model.mesh.setOrder(2)  # mid-edge nodes on the model's surfaces
     if split_thread or split_cones:
         split_interfaces(owner, faces, thread=split_thread, cones=split_cones, dim=3)
 

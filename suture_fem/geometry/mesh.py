@@ -47,7 +47,8 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
     geometry = Geometry.from_section(geometry_section)
     sizes = MeshSizes.from_section(mesh_section)
     gdim = geometry_section.dimension
-    build, args = ((build_gmsh_model_3d, (geometry, sizes, "suture3d", split_thread, split_cones)) if gdim == 3 else
+    build, args = ((build_gmsh_model_3d, (geometry, sizes, "suture3d", split_thread, split_cones,
+                                          mesh_section.geometry_degree)) if gdim == 3 else
                    (build_gmsh_model, (geometry, sizes, "suture", mesh_section.geometry_degree, split_thread,
                                        split_cones)))
     if comm.rank == 0:
@@ -63,8 +64,10 @@ def create_mesh(comm: Any, geometry_section: GeometrySection, mesh_section: Mesh
     mesh.geometry.x[:, :gdim] *= MM
     folded = mesh.comm.allreduce(folded_cells(mesh)) if geometry_degree(mesh) == 2 else 0
     if folded:
-        raise SceneError(f"mesh.geometry_degree = 2: {folded} quadratic cell(s) on the fillet arcs fold over (their "
-                         f"Jacobian changes sign); raise mesh.fillet_elements (now {mesh_section.fillet_elements})")
+        where, cure = (("on the model's curved surfaces", "refine the mesh (mesh.size_*_mm)") if gdim == 3 else
+                       ("on the fillet arcs", f"raise mesh.fillet_elements (now {mesh_section.fillet_elements})"))
+        raise SceneError(f"mesh.geometry_degree = 2: {folded} quadratic cell(s) {where} fold over (their Jacobian "
+                         f"changes sign); {cure}")
     return TaggedMesh(mesh, cell_tags, facet_tags, geometry, sizes)
 
 
@@ -122,8 +125,8 @@ def _write_checked(gmsh: Any, path: Path) -> None:
     commit(tmp, path)
 
 
-#: gmsh's element type of the 6-node (quadratic) triangle.
-GMSH_TRIANGLE6 = 9
+#: gmsh's element types of the quadratic cells: the 6-node triangle and the 10-node tetrahedron.
+GMSH_QUADRATIC = (9, 11)
 
 
 def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path: str | Path,
@@ -142,7 +145,8 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
     with compat.gmsh_session() as gmsh:
         try:
             if dim == 3:
-                build_gmsh_model_3d(geometry, sizes, split_thread=split_thread, split_cones=split_cones)
+                build_gmsh_model_3d(geometry, sizes, split_thread=split_thread, split_cones=split_cones,
+                                    geometry_degree=mesh_section.geometry_degree)
             else:
                 build_gmsh_model(geometry, sizes, geometry_degree=mesh_section.geometry_degree,
                                  split_thread=split_thread, split_cones=split_cones)
@@ -157,7 +161,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
         "units": "mm",
         "nodes": nodes,
         "triangles" if dim == 2 else "tetrahedra": int(cells),
-        "geometry_degree": 2 if GMSH_TRIANGLE6 in types else 1,
+        "geometry_degree": 2 if set(GMSH_QUADRATIC) & set(types) else 1,
         "thread_track_split": split_thread,
         **({"cone_surfaces_split": True} if split_cones else {}),
         "cell_tags": CELL_TAGS,
@@ -195,7 +199,9 @@ def describe(tagged: TaggedMesh) -> dict[str, Any]:
     }
     if m.geometry.dim == 3:
         kind = f"{tagged.geometry.kind} (as in 2-D)" if tagged.geometry.cones else "none"
-        out["model_3d"] = (MODEL_3D if tagged.geometry.slab is None else MODEL_SLAB) | {"cones": kind}
+        model = MODEL_3D if tagged.geometry.slab is None else MODEL_SLAB
+        curved = {"cells": CURVED_3D} if out["geometry_degree"] == 2 else {}
+        out["model_3d"] = model | {"cones": kind} | curved
     return out
 
 
@@ -207,6 +213,8 @@ MODEL_3D = {
     "axes": "x, y, z in mm; the thread along y (the 2-D model's z), r = sqrt(x^2 + z^2)",
     "cells": "linear tetrahedra (straight-sided), the 2-D section revolved by pi",
 }
+#: results.json's description of the 3-D cells with ``mesh.geometry_degree = 2``.
+CURVED_3D = "quadratic tetrahedra, their mid-edge nodes on the model's curved surfaces (gmsh's setOrder(2))"
 #: results.json's description of the slab (``geometry.tissue_shape = "slab"``).
 MODEL_SLAB = {
     "tissue_shape": "slab",
@@ -225,27 +233,47 @@ def geometry_degree(mesh: Any) -> int:
     return {3: 1, 6: 2, 4: 1, 10: 2}[compat.geometry_dofs(mesh).shape[1]]
 
 
-#: Points of the reference triangle where :func:`folded_cells` evaluates the Jacobian: vertices, edge midpoints,
-#: centroid.
-_FOLD_POINTS = ((0, 0), (1, 0), (0, 1), (0.5, 0.5), (0, 0.5), (0.5, 0), (1 / 3, 1 / 3))
+#: The edges of the reference triangle and tetrahedron in dolfinx's (basix's) order of the P2 mid-side nodes.
+_EDGES = {2: ((1, 2), (0, 2), (0, 1)), 3: ((2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1))}
+
+
+def _fold_points(dim: int) -> list[tuple[float, ...]]:
+    """Where :func:`folded_cells` evaluates the Jacobian: the vertices, the edge midpoints and the centroid (last)."""
+    vertices = [tuple(float(i == k) for i in range(dim)) for k in range(-1, dim)]
+    mids = [tuple((p + q) / 2 for p, q in zip(vertices[a], vertices[b])) for a, b in _EDGES[dim]]
+    return [*vertices, *mids, tuple(1.0 / (dim + 1) for _ in range(dim))]
+
+
+def _p2_jacobian_dets(x: np.ndarray, points: list[tuple[float, ...]] | np.ndarray) -> np.ndarray:
+    """det(dx/dxi) of quadratic cells (nodes ``x``: (cells, 6 or 10, dim)) at reference ``points``: (points, cells).
+
+    The P2 Lagrange basis in dolfinx's node order: the vertices, then the mid-side nodes in :data:`_EDGES`' order.
+    """
+    dim = x.shape[2]
+    dlam = [[-1.0] * dim] + [[float(i == k) for i in range(dim)] for k in range(dim)]  # d(lambda_k)/d(xi)
+    dets = []
+    for xi in points:
+        lam = [1.0 - sum(xi), *xi]
+        grads = [[(4 * lam[k] - 1) * dlam[k][d] for d in range(dim)] for k in range(dim + 1)]
+        for a, b in _EDGES[dim]:  # the mid-side node of edge (a, b): 4 lambda_a lambda_b
+            grads.append([4 * (lam[a] * dlam[b][d] + lam[b] * dlam[a][d]) for d in range(dim)])
+        dets.append(np.linalg.det(np.einsum("cnx,nd->cxd", x, np.array(grads))))
+    return np.array(dets)
 
 
 def folded_cells(mesh: Any) -> int:
-    """The local quadratic triangles whose Jacobian determinant changes sign (or vanishes) inside them.
+    """The local quadratic triangles or tetrahedra whose Jacobian determinant changes sign (or vanishes) inside them.
 
-    Sampled at :data:`_FOLD_POINTS` with the P2 Lagrange basis in dolfinx's node order (vertices 0-2, then
-    the mid-side nodes of the edges opposite vertices 0, 1, 2): a cell whose curved edge bulges past
-    its opposite corner would integrate with a wrong sign without any error.
+    Sampled at :func:`_fold_points`: a cell whose curved edge bulges past its opposite corner (or face) would
+    integrate with a wrong sign without any error.
     """
-    x = mesh.geometry.x[:, :2][compat.geometry_dofs(mesh)]  # (cells, 6, 2)
-    dets = []
-    for xi, eta in _FOLD_POINTS:
-        lam = (1.0 - xi - eta, xi, eta)
-        dlam = ((-1.0, -1.0), (1.0, 0.0), (0.0, 1.0))  # d(lambda_k)/d(xi, eta)
-        grads = [[(4 * lam[k] - 1) * dlam[k][d] for d in range(2)] for k in range(3)]
-        for a, b in ((1, 2), (0, 2), (0, 1)):  # the mid-side node of edge (a, b): 4 lambda_a lambda_b
-            grads.append([4 * (lam[a] * dlam[b][d] + lam[b] * dlam[a][d]) for d in range(2)])
-        jac = np.einsum("cnx,nd->cxd", x, np.array(grads))
-        dets.append(jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0])
-    dets = np.array(dets)
+    dim = mesh.topology.dim
+    x = mesh.geometry.x[:, :dim][compat.geometry_dofs(mesh)]  # (cells, 6 or 10, dim)
+    dets = _p2_jacobian_dets(x, _fold_points(dim))
     return int(np.sum(np.any(dets * np.sign(dets[-1]) <= 0.0, axis=0)))
+
+
+def quadratic_volumes(x: np.ndarray) -> np.ndarray:
+    """The volumes of quadratic tetrahedra (nodes ``x``: (cells, 10, 3)), exactly: det J is a cubic in the cell."""
+    points, weights = compat.quadrature_rule("tetrahedron", 3)
+    return np.abs(weights @ _p2_jacobian_dets(x, points))

@@ -1,13 +1,14 @@
-"""What a 3-D scene (``geometry.dimension = 3``) may call for; the rest is refused in one line before meshing.
+"""What a 3-D scene (``geometry.dimension = 3``) may call for, and the slab's own checks, before meshing.
 
 The 3-D model is the cylinder or the slab half model (:mod:`suture_fem.geometry.gmsh_3d`): the same materials, sharp
 or rounded rims, the tied, sliding, frictionless or Coulomb cones (the unilateral ones with the trust region and the
 swapping pairs' doubled penalty: docs/three-d.md), the tied, frictionless, sliding or Coulomb thread, the elastic or
 the rigid suture, the displacement or the mixed formulation, gravity along the thread, the pull as a force on the
 thread's end face or its end moved (displacement control), the static load ramp or inertia's time history, the field
-files, the load shares, and the USUM, SEQV and EPTOEQV maxima (with the reaction, energy and end displacement) and
-their critical-distance averages over a ball (:mod:`suture_fem.outputs.ball_search`). What is built in 2-D only is
-listed here with the key that asks for it.
+files, the load shares, straight or quadratic (curved) cells, and the USUM, SEQV and EPTOEQV maxima (with the
+reaction, energy and end displacement) and their critical-distance averages over a ball
+(:mod:`suture_fem.outputs.ball_search`). Every scene key a 2-D scene has is built in 3-D; what is checked here is the
+slab's: its shape needs 3-D, and its outputs need the slab.
 """
 
 from __future__ import annotations
@@ -17,22 +18,12 @@ from typing import Any
 from suture_fem.scene.schema import OUTPUT_QUANTITIES, SLAB_QUANTITIES
 from suture_fem.support.errors import SceneError
 
-#: (scene key, the values a 3-D scene may have, what the others would ask for). Each other value is refused in 3-D.
-UNSUPPORTED: tuple[tuple[str, Any, str], ...] = (
-    ("mesh.geometry_degree", (1,), "quadratic cells are built in 2-D only"),
-)
-
-
-def _value(scene: Any, dotted: str) -> Any:
-    section, name = dotted.split(".")
-    return getattr(getattr(scene, section), name)
-
 
 def check_three_d(scene: Any) -> None:
-    """SceneError (one line naming the key) for anything a 3-D scene asks for that is built in 2-D only.
+    """SceneError (one line naming the key) for the slab's keys where there is no slab.
 
-    Also the slab's: ``geometry.tissue_shape = "slab"`` needs ``geometry.dimension = 3``, and its outputs
-    (``output.quantities``' "dimple") need the slab.
+    ``geometry.tissue_shape = "slab"`` needs ``geometry.dimension = 3``, and the slab's outputs (``output.quantities``'
+    "dimple") need the slab.
     """
     slab_outputs = [q for q in SLAB_QUANTITIES if q in scene.output.quantities]
     if scene.geometry.tissue_shape != "slab" and slab_outputs:
@@ -40,14 +31,6 @@ def check_three_d(scene: Any) -> None:
         raise SceneError(f'scene key output.quantities = {list(scene.output.quantities)}: "{slab_outputs[0]}" (the '
                          "skin surface's displacement) needs geometry.tissue_shape = \"slab\" and geometry.dimension "
                          f"= 3; allowed here: any of {others}")
-    if scene.geometry.dimension != 3:
-        if scene.geometry.tissue_shape != "cylinder":
-            raise SceneError('scene key geometry.tissue_shape = "slab" needs geometry.dimension = 3; allowed in 2-D: '
-                             '"cylinder"')
-        return
-    for dotted, wanted, why in UNSUPPORTED:
-        value = _value(scene, dotted)
-        if value not in wanted:
-            allowed = " or ".join(repr(w) for w in wanted)
-            raise SceneError(f"scene key {dotted} = {value!r} with geometry.dimension = 3: {why}; allowed in 3-D: "
-                             f"{allowed}")
+    if scene.geometry.dimension != 3 and scene.geometry.tissue_shape != "cylinder":
+        raise SceneError('scene key geometry.tissue_shape = "slab" needs geometry.dimension = 3; allowed in 2-D: '
+                         '"cylinder"')

@@ -166,10 +166,15 @@ def form(ufl_form: Any) -> Any:
 
 def quadrature_points(cell: str, degree: int) -> np.ndarray:
     """Reference quadrature points of a rule exact to ``degree`` on a cell ("triangle" or "tetrahedron")."""
+    return quadrature_rule(cell, degree)[0]
+
+
+def quadrature_rule(cell: str, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Reference quadrature points and weights of a rule exact to ``degree`` on a cell (basix's default rule)."""
     import basix
 
-    pts, _ = basix.make_quadrature(getattr(basix.CellType, cell), degree)
-    return pts
+    pts, weights = basix.make_quadrature(getattr(basix.CellType, cell), degree)
+    return np.asarray(pts), np.asarray(weights)
 
 
 def expression(expr: Any, points: np.ndarray) -> Any:

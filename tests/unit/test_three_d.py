@@ -15,14 +15,12 @@ from suture_fem.geometry.gmsh_model import MeshSizes
 from suture_fem.geometry.section import Geometry
 from suture_fem.outputs.base import hencky_equivalent, von_mises
 from suture_fem.physics import kinematics
-from suture_fem.physics.three_d import UNSUPPORTED, check_three_d
+from suture_fem.physics.three_d import check_three_d
 from suture_fem.scene import Scene
 from suture_fem.support import compat
 from suture_fem.support.errors import SceneError
 
 THREE_D = {"geometry.dimension": 3, "output.critical_distance_mm": 0.0, "output.quantities": ["usum", "seqv"]}
-#: A value of each key that a 3-D scene refuses.
-REFUSED = {"mesh.geometry_degree": 2}
 
 
 def test_a_plain_3d_scene_passes_the_checks():
@@ -35,16 +33,7 @@ def test_a_plain_3d_scene_passes_the_checks():
     check_three_d(Scene.from_values({**THREE_D, **rounded_rims_frictionless_thread}))
     for cones in ("sliding", "frictionless", "coulomb"):  # the unilateral ones since 2026-12-05
         check_three_d(Scene.from_values({**THREE_D, "effects.cone_interface": cones}))
-
-
-@pytest.mark.parametrize("key", [k for k, _, _ in UNSUPPORTED])
-def test_what_3d_does_not_build_is_refused_in_one_line_naming_the_key(key):
-    values = {**THREE_D, key: REFUSED[key]}
-    if key == "mesh.geometry_degree":
-        values["mesh.degree"] = 2
-    with pytest.raises(SceneError) as err:
-        check_three_d(Scene.from_values(values))
-    assert key in str(err.value) and "\n" not in str(err.value)
+    check_three_d(Scene.from_values({**THREE_D, "mesh.degree": 2, "mesh.geometry_degree": 2}))  # curved cells too
 
 
 def test_the_slab_in_2d_is_refused():

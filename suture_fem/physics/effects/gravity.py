@@ -35,7 +35,9 @@ def weight_n(tagged: meshmod.TaggedMesh, e: EffectsSection) -> float:
     For a straight-sided triangle int r dA = A r_centroid exactly, so V = sum 2 pi A r_centroid. Quadratic
     cells (``mesh.geometry_degree = 2``) count as their vertex triangles: the slivers between the fillet
     arcs and their chords are below 1e-6 of the section's area at 8 elements per arc (0.04 mm fillets).
-    In 3-D, V is twice the half model's tetrahedra's volume.
+    In 3-D, V is twice the half model's tetrahedra's volume, quadratic ones integrated exactly
+    (:func:`~suture_fem.geometry.mesh.quadratic_volumes`: their vertex tetrahedra miss about 0.6 % of the
+    coarsest cylinder's curved volume).
     """
     mesh = tagged.mesh
     dim = mesh.topology.dim
@@ -47,7 +49,9 @@ def weight_n(tagged: meshmod.TaggedMesh, e: EffectsSection) -> float:
         ids = meshmod.region_cells(tagged, tag)
         ids = ids[ids < n_owned]
         p = geom[cells[ids]]
-        if dim == 3:  # the half model's tetrahedra, doubled
+        if dim == 3 and p.shape[1] == 10:  # the half model's quadratic tetrahedra, doubled
+            volume = 2.0 * meshmod.quadratic_volumes(p)
+        elif dim == 3:  # the half model's tetrahedra, doubled
             volume = 2.0 * np.abs(np.linalg.det(p[:, 1:4] - p[:, :1])) / 6.0
         else:
             a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]

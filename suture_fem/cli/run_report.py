@@ -180,6 +180,8 @@ def summary(results: Any, out: Path, written: list[Path]) -> str:
             lines.append(f"      load passed to the tissue (N): {shares}")
         if "dimple_depth_mm" in rec:
             dimples = ", ".join(f"{v:.3g}" for v in rec["dimple_depth_mm"]) or "no cone"
+            reliefs = ", ".join("-" if v is None else f"{v:.3g}" for v in rec.get("dimple_relief_mm", []))
+            dimples += f" (under a straightedge: {reliefs})" if reliefs else ""
             lines.append(f"      skin (mm, along its outward normal): dimple over each cone {dimples}; largest inward "
                          f"{rec['skin_inward_mm']:.3g} at {_at(rec['skin_inward_at_mm'])}, largest outward "
                          f"{rec['skin_outward_mm']:.3g}")

@@ -8,6 +8,12 @@ is the largest inward displacement (-u_n) of the skin nodes over the cone: y wit
 where a load at that depth is felt most); positive when the skin sinks there, negative when the whole skin over
 the cone rises. It is measured from the skin's undeformed plane, so it includes the slab's overall tilt, not only
 the local depression. The profile is u_n along the skin's line above the thread (z = 0), ordered by y.
+
+The dimple's relief over a cone is the local depression without the tilt: a straightedge laid on the deformed
+profile across the cone, from one thread depth before its span to one thread depth after it (within the skin's
+ends), and the largest depth of the profile under it (the chord between the profile's values at the window's
+ends, less u_n, at the profile's nodes in the window); positive where the skin dips under the straightedge,
+zero or negative where it bulges. On the line above the thread only.
 """
 
 from __future__ import annotations
@@ -43,6 +49,8 @@ class Dimple(Quantity):
             "skin_inward_mm": "largest inward displacement -u.n over the skin surface's nodes",
             "skin_outward_mm": "largest outward displacement u.n over the skin surface's nodes",
             "skin_profile_mm": "[y, u.n] at the skin's nodes on the line above the thread (z = 0), by y",
+            "dimple_relief_mm": "per cone: the largest depth of the skin profile (z = 0) under a straightedge laid on "
+                                "it from one thread depth before the cone's span to one after it (the tilt removed)",
         }
 
     def __init__(self, setup: Setup):
@@ -68,6 +76,8 @@ class Dimple(Quantity):
         line = np.abs(self.xyz[:, 2]) < ON_LINE_M
         local = [[float(a) / MM, float(b)] for a, b in zip(y[line], normal[line])]
         profile = sorted(p for part in state.comm.allgather(local) for p in part)
+        reliefs = [relief(profile, lo / MM - self.footprint / MM, hi / MM + self.footprint / MM)
+                   for lo, hi in self.spans]
         return {
             "dimple_depth_mm": [d.value for d in dimples],
             "dimple_depth_at_mm": [d.at_mm for d in dimples],
@@ -76,4 +86,24 @@ class Dimple(Quantity):
             "skin_outward_mm": outward.value,
             "skin_outward_at_mm": outward.at_mm,
             "skin_profile_mm": profile,
+            "dimple_relief_mm": [r[0] for r in reliefs],
+            "dimple_relief_at_y_mm": [r[1] for r in reliefs],
         }
+
+
+def relief(profile: list[list[float]], start: float, end: float) -> tuple[float | None, float | None]:
+    """(depth, y): the largest depth of ``profile`` ([y, u_n] by y, mm) under its chord from ``start`` to ``end``.
+
+    The window is clipped to the profile's span; (None, None) where it holds fewer than three nodes.
+    """
+    y, u = (np.array([p[i] for p in profile]) for i in (0, 1))
+    if len(y) == 0:
+        return None, None
+    start, end = max(start, y[0]), min(end, y[-1])
+    inside = (y >= start) & (y <= end)
+    if np.count_nonzero(inside) < 3:
+        return None, None
+    u0, u1 = np.interp([start, end], y, u)
+    depth = u0 + (u1 - u0) * (y[inside] - start) / (end - start) - u[inside]
+    k = int(np.argmax(depth))
+    return float(depth[k]), float(y[inside][k])

@@ -38,7 +38,8 @@ def test_the_slab_draws_its_skin_and_its_cut_and_prints_its_dimples(slab_out, sl
         assert (slab_out / name).stat().st_size > 10_000, name
     printed = summary(slab, slab_out, [])
     for state in slab["at_forces"]:
-        assert f"dimple over each cone {state['dimple_depth_mm'][0]:.3g};" in printed
+        relief = f"(under a straightedge: {state['dimple_relief_mm'][0]:.3g})"
+        assert f"dimple over each cone {state['dimple_depth_mm'][0]:.3g} {relief};" in printed
 
 
 @pytest.mark.slow
@@ -63,6 +64,9 @@ def test_the_skin_outputs_cover_the_skin_and_each_cone(slab):
             assert at[0] == pytest.approx(depth) and abs(at[2]) <= depth * (1 + 1e-9)  # on the skin, over the thread
             assert min(cone["base_z_mm"], cone["apex_z_mm"]) <= at[1] <= max(cone["base_z_mm"], cone["apex_z_mm"])
         profile = state["skin_profile_mm"]
+        assert len(state["dimple_relief_mm"]) == len(state["dimple_relief_at_y_mm"]) == 1
+        span = sorted((cones[0]["base_z_mm"], cones[0]["apex_z_mm"]))
+        assert span[0] - depth <= state["dimple_relief_at_y_mm"][0] <= span[1] + depth  # the straightedge's window
         ys = [y for y, _ in profile]
         assert ys == sorted(ys) and ys[0] == pytest.approx(0.0, abs=1e-9) and ys[-1] == pytest.approx(length)
         normals = [un for _, un in profile]

@@ -9,7 +9,8 @@ rung of benchmarks/three_d.py), pulled to 4 N with reports at 1, 2 and 3 N, ``--
 * ``compare``: slab (thread 3.6 mm deep: the cylinder's distance from the thread to the skin) against the 3-D
   cylinder on the same sizes, 1 and 4 cones, 1 and 4 N: USUM, the thread end, the energy, the tissue's SEQV and
   EPTOEQV (peak and outside the rims).
-* ``dimple``: the dimple depth over each cone at 1-4 N, 1 and 4 cones, thread depths 3.6 and 2.0 mm; the block's
+* ``dimple``: the dimple depth over each cone at 1-4 N, 1 and 4 cones, thread depths 3.6 and 2.0 mm, and its relief
+  (the depth under a straightedge across the cone: results.json's ``dimple_relief_mm``); the block's
   end margins from ``--dimple-margins`` (the scene's 3 mm if not given: that measures the block's tilt).
 * ``margins``: the block's free end faces moved from 3 mm (geometry.margin_far_mm / margin_pull_mm, the
   cylinder's default) to farther from the cones (``--margins``, each end alone and both): the dimple over each
@@ -129,6 +130,9 @@ def dimple(factor: float, cones_list: list[int], tmp: Path) -> list[dict]:
                 rows.append({"cones": cones, "thread_depth_mm": depth, "force_n": force, "dofs": res.get("dofs"),
                              "cpu_s": res["process_cpu_s"], "peak_memory_mb": res["peak_memory_mb"],
                              "dimple_depth_mm": [round(d, 4) for d in s["dimple_depth_mm"] or []],
+                             "dimple_relief_mm": [None if d is None else round(d, 4)
+                                                  for d in at(res, force).get("dimple_relief_mm") or []],
+                             "dimple_relief_at_y_mm": at(res, force).get("dimple_relief_at_y_mm"),
                              "skin_inward_mm": s["skin_inward_mm"], "skin_outward_mm": s["skin_outward_mm"],
                              "usum_mm": s["usum_mm"], "skin_inward_at_mm": at(res, force).get("skin_inward_at_mm"),
                              "dimple_depth_at_mm": at(res, force).get("dimple_depth_at_mm"),
@@ -182,7 +186,7 @@ def main() -> int:
         "compare": ["cones", "model", "force_n", "dofs", "cpu_s", "peak_memory_mb", "status", "force_reached_n",
                     *QUANTITIES, *[f"tissue_{q}" for q in TISSUE]],
         "dimple": ["cones", "thread_depth_mm", "force_n", "dofs", "cpu_s", "peak_memory_mb", "dimple_depth_mm",
-                   "skin_inward_mm", "skin_outward_mm", "usum_mm"],
+                   "dimple_relief_mm", "skin_inward_mm", "skin_outward_mm", "usum_mm"],
         "margins": ["cones", "margin_far_mm", "margin_pull_mm", "force_n", "dofs", "cpu_s", "peak_memory_mb",
                     "usum_mm", "dimple_depth_mm", "skin_inward_mm", "skin_outward_mm"],
     }

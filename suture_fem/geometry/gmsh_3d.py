@@ -14,12 +14,14 @@ millimetres; call on one rank only.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from suture_fem.geometry.curved import straighten_folded_gmsh
 from suture_fem.geometry.gmsh_model import (
     FILLET_GRADING,
     MeshSizes,
@@ -33,6 +35,8 @@ from suture_fem.geometry.regions import FACET_TAGS, SUTURE, TISSUE, Facet
 from suture_fem.geometry.section import Geometry
 from suture_fem.geometry.slab import Slab
 from suture_fem.support import compat
+
+log = logging.getLogger("suture_fem")
 
 #: The revolution's angle: half a turn (the symmetry plane z = 0 closes the half model).
 ANGLE = math.pi
@@ -48,7 +52,9 @@ def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "sutur
 
     ``geometry_degree`` 2 makes the tetrahedra quadratic (``mesh.geometry_degree``): gmsh places their mid-edge nodes
     on the model's surfaces, so the thread's and the layers' cylinders, the cones and the rims' tori are curved,
-    not faceted. Unlike 2-D, where only the fillet arcs are curved, every 3-D model has curved surfaces.
+    not faceted; a cell the curving folds (a sliver with its four vertices on one surface) keeps straight edges
+    (:func:`~suture_fem.geometry.curved.straighten_folded_gmsh`). Unlike 2-D, where only the fillet arcs are curved,
+    every 3-D model has curved surfaces.
 
     The slab (``geometry.slab``): the three layers as boxes, the suture's pieces revolved as for the cylinder.
     ``split_thread`` gives the tissue its own nodes along the bare thread (the faces tagged ``track``),
@@ -77,6 +83,9 @@ def build_gmsh_model_3d(geometry: Geometry, sizes: MeshSizes, name: str = "sutur
     gmsh.model.mesh.generate(3)
     if geometry_degree == 2:
         gmsh.model.mesh.setOrder(2)  # mid-edge nodes on the model's surfaces
+        straightened = straighten_folded_gmsh()
+        if straightened:
+            log.info("meshing: %d quadratic tetrahedra folded when curved; their edges are straight", straightened)
     if split_thread or split_cones:
         split_interfaces(owner, faces, thread=split_thread, cones=split_cones, dim=3)
 

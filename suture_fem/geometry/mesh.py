@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from suture_fem.geometry import curved
 from suture_fem.geometry.gmsh_3d import build_gmsh_model_3d
 from suture_fem.geometry.gmsh_model import MeshSizes, build_gmsh_model
 from suture_fem.geometry.regions import CELL_TAGS, FACET_TAGS, MM, REGION_OF_TAG, REGIONS
@@ -233,47 +234,11 @@ def geometry_degree(mesh: Any) -> int:
     return {3: 1, 6: 2, 4: 1, 10: 2}[compat.geometry_dofs(mesh).shape[1]]
 
 
-#: The edges of the reference triangle and tetrahedron in dolfinx's (basix's) order of the P2 mid-side nodes.
-_EDGES = {2: ((1, 2), (0, 2), (0, 1)), 3: ((2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1))}
-
-
-def _fold_points(dim: int) -> list[tuple[float, ...]]:
-    """Where :func:`folded_cells` evaluates the Jacobian: the vertices, the edge midpoints and the centroid (last)."""
-    vertices = [tuple(float(i == k) for i in range(dim)) for k in range(-1, dim)]
-    mids = [tuple((p + q) / 2 for p, q in zip(vertices[a], vertices[b])) for a, b in _EDGES[dim]]
-    return [*vertices, *mids, tuple(1.0 / (dim + 1) for _ in range(dim))]
-
-
-def _p2_jacobian_dets(x: np.ndarray, points: list[tuple[float, ...]] | np.ndarray) -> np.ndarray:
-    """det(dx/dxi) of quadratic cells (nodes ``x``: (cells, 6 or 10, dim)) at reference ``points``: (points, cells).
-
-    The P2 Lagrange basis in dolfinx's node order: the vertices, then the mid-side nodes in :data:`_EDGES`' order.
-    """
-    dim = x.shape[2]
-    dlam = [[-1.0] * dim] + [[float(i == k) for i in range(dim)] for k in range(dim)]  # d(lambda_k)/d(xi)
-    dets = []
-    for xi in points:
-        lam = [1.0 - sum(xi), *xi]
-        grads = [[(4 * lam[k] - 1) * dlam[k][d] for d in range(dim)] for k in range(dim + 1)]
-        for a, b in _EDGES[dim]:  # the mid-side node of edge (a, b): 4 lambda_a lambda_b
-            grads.append([4 * (lam[a] * dlam[b][d] + lam[b] * dlam[a][d]) for d in range(dim)])
-        dets.append(np.linalg.det(np.einsum("cnx,nd->cxd", x, np.array(grads))))
-    return np.array(dets)
-
-
 def folded_cells(mesh: Any) -> int:
     """The local quadratic triangles or tetrahedra whose Jacobian determinant changes sign (or vanishes) inside them.
 
-    Sampled at :func:`_fold_points`: a cell whose curved edge bulges past its opposite corner (or face) would
-    integrate with a wrong sign without any error.
+    Sampled at :func:`~suture_fem.geometry.curved.fold_points`: a cell whose curved edge bulges past its opposite
+    corner (or face) would integrate with a wrong sign without any error.
     """
     dim = mesh.topology.dim
-    x = mesh.geometry.x[:, :dim][compat.geometry_dofs(mesh)]  # (cells, 6 or 10, dim)
-    dets = _p2_jacobian_dets(x, _fold_points(dim))
-    return int(np.sum(np.any(dets * np.sign(dets[-1]) <= 0.0, axis=0)))
-
-
-def quadratic_volumes(x: np.ndarray) -> np.ndarray:
-    """The volumes of quadratic tetrahedra (nodes ``x``: (cells, 10, 3)), exactly: det J is a cubic in the cell."""
-    points, weights = compat.quadrature_rule("tetrahedron", 3)
-    return np.abs(weights @ _p2_jacobian_dets(x, points))
+    return int(np.sum(curved.folded(mesh.geometry.x[:, :dim][compat.geometry_dofs(mesh)])))

@@ -1,5 +1,6 @@
 """Quadratic tetrahedra (``mesh.geometry_degree = 2`` in 3-D): their mid-edge nodes lie on the model's curved
-surfaces, the volume of the revolved section is then exact to the geometry's order, and a folded cell is found."""
+surfaces, the volume of the revolved section is then exact to the geometry's order, a folded cell is found (between
+any sample points too), and a cell the curving folds is straightened before the mesh leaves gmsh."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import pytest
 import ufl
 from mpi4py import MPI
 
+from suture_fem.geometry import curved
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry.regions import MM
 from suture_fem.pipeline import load_scene
@@ -103,3 +105,75 @@ def test_a_folded_quadratic_tetrahedron_is_found(meshes):
 def test_the_model_record_names_the_curved_cells(meshes):
     assert meshmod.describe(meshes[2])["model_3d"]["cells"] == meshmod.CURVED_3D
     assert "straight-sided" in meshmod.describe(meshes[1])["model_3d"]["cells"]
+
+
+def _tetrahedron(bulge: float) -> np.ndarray:
+    """A reference-shaped quadratic tetrahedron (basix's node order) whose edge (2, 3) bows toward vertex 0."""
+    v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    mids = [(v[a] + v[b]) / 2 for a, b in curved.EDGES[3]]
+    mids[0] = mids[0] - bulge * mids[0]  # edge (2, 3)'s mid-node moved toward vertex 0 by ``bulge`` of its distance
+    return np.concatenate([v, np.array(mids)])[None]
+
+
+def test_the_bernstein_bound_finds_every_fold_a_dense_sample_finds():
+    """Where the Jacobian (a cubic) is negative at any point of a dense lattice, the cell counts as folded."""
+    n = 12
+    lattice = [(i / n, j / n, k / n) for i in range(n + 1) for j in range(n + 1 - i) for k in range(n + 1 - i - j)]
+    found = []
+    for bulge in np.linspace(0.0, 1.2, 61):
+        x = _tetrahedron(bulge)
+        negative = bool(np.any(curved.jacobian_dets(x, lattice) <= 0.0))
+        flagged = bool(curved.folded(x)[0])
+        assert flagged or not negative, bulge  # never a fold missed
+        found.append((negative, flagged))
+    assert found[0] == (False, False)  # the straight cell
+    assert found[-1] == (True, True)  # the node pulled past the opposite vertex
+    # the bound is conservative: it flags a little before the cubic turns negative, never after
+    first = {k: next(i for i, f in enumerate(found) if f[k]) for k in (0, 1)}
+    assert first[1] <= first[0]
+
+
+def test_a_cell_the_curving_folds_is_straightened_in_gmsh(monkeypatch):
+    """The coarse full cone's mesh: a sliver on the thread folds when curved; it is straightened, the mesh built.
+
+    Before, gmsh's node order is checked: each mid-edge node, read in basix's order, lies nearest its own edge's
+    chord midpoint.
+    """
+    from suture_fem.geometry import gmsh_3d
+
+    counts = []
+
+    def counted(*args, **kwargs):
+        _, _, x = curved._gmsh_tetrahedra()
+        mids = np.stack([(x[:, a] + x[:, b]) / 2 for a, b in curved.EDGES[3]], axis=1)  # (cells, 6 edges, 3)
+        distance = np.linalg.norm(x[:, 4:, None, :] - mids[:, None, :, :], axis=3)  # (cells, 6 nodes, 6 edges)
+        assert np.all(np.argmin(distance, axis=2) == np.arange(6))
+        counts.append(curved.straighten_folded_gmsh(*args, **kwargs))
+        return counts[-1]
+
+    monkeypatch.setattr(gmsh_3d, "straighten_folded_gmsh", counted)
+    scene = load_scene("paper", [*COARSE[:1], "geometry.cones=1", 'geometry.cone_kind="full"', "mesh.degree=2",
+                                 "mesh.size_suture_mm=0.5", "mesh.size_rim_mm=0.25", "mesh.size_far_mm=3.0",
+                                 "geometry.margin_far_mm=1.5", "geometry.margin_pull_mm=1.5", "mesh.geometry_degree=2"])
+    tagged = meshmod.create_mesh(MPI.COMM_SELF, scene.geometry, scene.mesh)
+    assert len(counts) == 1  # measured: 1 cell straightened (gmsh 4.8)
+    assert meshmod.geometry_degree(tagged.mesh) == 2 and meshmod.folded_cells(tagged.mesh) == 0
+
+
+def test_straightening_puts_a_folded_cells_mid_edge_nodes_on_its_chords():
+    """A one-cell gmsh mesh whose edge (2, 3) bows past vertex 0: straightened, its Jacobian is constant again."""
+    x = _tetrahedron(1.2)[0]
+    gmsh_order = x[[0, 1, 2, 3, 9, 6, 8, 7, 4, 5]]  # basix's edges (0,1)->9 ... : the inverse of GMSH_TO_BASIX
+    assert np.allclose(gmsh_order[list(curved.GMSH_TO_BASIX)], x)
+    with compat.gmsh_session() as gmsh:
+        gmsh.model.add("one")
+        try:
+            volume = gmsh.model.addDiscreteEntity(3)
+            gmsh.model.mesh.addNodes(3, volume, list(range(1, 11)), gmsh_order.reshape(-1).tolist())
+            gmsh.model.mesh.addElementsByType(volume, curved.GMSH_TETRAHEDRON10, [1], list(range(1, 11)))
+            assert curved.straighten_folded_gmsh() == 1
+            _, _, after = curved._gmsh_tetrahedra()
+        finally:
+            gmsh.model.remove()
+    dets = curved.jacobian_dets(after, [(0.0, 0.0, 0.0), (0.25, 0.25, 0.25), (0.0, 0.5, 0.5)])
+    assert np.allclose(dets, 1.0) and not curved.folded(after)[0]

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from suture_fem.geometry import curved
 from suture_fem.geometry import mesh as meshmod
 from suture_fem.geometry.regions import REGION_OF_TAG
 from suture_fem.physics import kinematics
@@ -36,7 +37,7 @@ def weight_n(tagged: meshmod.TaggedMesh, e: EffectsSection) -> float:
     cells (``mesh.geometry_degree = 2``) count as their vertex triangles: the slivers between the fillet
     arcs and their chords are below 1e-6 of the section's area at 8 elements per arc (0.04 mm fillets).
     In 3-D, V is twice the half model's tetrahedra's volume, quadratic ones integrated exactly
-    (:func:`~suture_fem.geometry.mesh.quadratic_volumes`: their vertex tetrahedra miss about 0.6 % of the
+    (:func:`~suture_fem.geometry.curved.volumes`: their vertex tetrahedra miss about 0.6 % of the
     coarsest cylinder's curved volume).
     """
     mesh = tagged.mesh
@@ -50,7 +51,7 @@ def weight_n(tagged: meshmod.TaggedMesh, e: EffectsSection) -> float:
         ids = ids[ids < n_owned]
         p = geom[cells[ids]]
         if dim == 3 and p.shape[1] == 10:  # the half model's quadratic tetrahedra, doubled
-            volume = 2.0 * meshmod.quadratic_volumes(p)
+            volume = 2.0 * curved.volumes(p)
         elif dim == 3:  # the half model's tetrahedra, doubled
             volume = 2.0 * np.abs(np.linalg.det(p[:, 1:4] - p[:, :1])) / 6.0
         else:

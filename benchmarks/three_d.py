@@ -10,8 +10,9 @@ CPU seconds, summed over every MPI rank, and its peak resident memory, the large
   the thread end's displacement, the strain energy, the tissue's SEQV and EPTOEQV outside the rims
   (``seqv_outside_rim_pa``, ``eptoeqv_outside_rim``) and their peaks.
 * ``ranks``: one rung (sizes times 2, 1 cone, 1 N) on 1 and 2 MPI ranks: CPU, wall, peak memory per rank.
-* ``solvers``: MUMPS against GAMG (and hypre) on two rungs at 0.25 N: the linear solve's seconds per
-  Newton iteration, the crossover of ``solver.linear_method = "auto"``.
+* ``solvers``: MUMPS against GAMG (and hypre) at 0.25 N on the rungs of ``--solver-factors`` (x2 and x1.41;
+  hypre on the first only, ``--solver-methods`` to change): the linear solve's seconds per Newton iteration,
+  the crossover of ``solver.linear_method = "auto"``.
 * ``critical_distance``: the tissue's converged measures (SEQV and EPTOEQV averaged over a ball of the
   default critical distance, 0.1 mm, where largest; near the cones too) at 1 N, 1 and 4 cones, on the
   ladder's 3-D rungs and, for 1 cone, with the rims alone refined (rim size 0.05 and 0.025 mm, the rest
@@ -29,7 +30,8 @@ CPU seconds, summed over every MPI rank, and its peak resident memory, the large
 
     .venv/bin/python benchmarks/three_d.py [--parts ladder ranks solvers critical_distance p2] \
         [--out benchmarks/out/three_d] [--cpu-limit 3600] [--memory-limit 8] [--p2-set KEY=VALUE ...] \
-        [--p2-name p2] [--p2-factors 4 2.83 2 1.41 1]
+        [--p2-name p2] [--p2-factors 4 2.83 2 1.41 1] [--solver-factors 2 1.41 1] \
+        [--solver-methods direct gamg hypre]
 """
 
 from __future__ import annotations
@@ -156,11 +158,15 @@ def ranks(tmp: Path) -> list[dict]:
     return rows
 
 
-def solvers(tmp: Path) -> list[dict]:
-    """Direct against algebraic multigrid, seconds per linear solve, on two rungs at 0.25 N."""
+def solvers(tmp: Path, factors: tuple[float, ...] = (2.0, 1.41),
+            methods: tuple[str, ...] = ("direct", "gamg", "hypre")) -> list[dict]:
+    """Direct against algebraic multigrid, seconds per linear solve, on the rungs ``factors`` at 0.25 N.
+
+    hypre's BoomerAMG (which failed on the first solve at x2, falling back to MUMPS) on the first rung only.
+    """
     rows = []
-    for f in (2.0, 1.41):
-        for method in ("direct", "gamg", "hypre"):
+    for i, f in enumerate(factors):
+        for method in (m for m in methods if m != "hypre" or i == 0):
             scene = [*BASE_3D, "geometry.cones=1", "loading.force_n=0.25", *sized(f),
                      f'solver.linear_method="{method}"']
             res = run(f"solver_{method}_{f:g}", scene, tmp)
@@ -295,10 +301,13 @@ def main() -> int:
     parser.add_argument("--p2-set", nargs="*", default=[], help="p2: scene keys KEY=VALUE for every run of the part")
     parser.add_argument("--p2-name", default="p2", help="p2: the JSON's file name (without .json)")
     parser.add_argument("--p2-factors", nargs="+", type=float, default=list(P2_FACTORS), help="p2: the rungs' factors")
+    parser.add_argument("--solver-factors", nargs="+", type=float, default=[2.0, 1.41], help="solvers: the rungs")
+    parser.add_argument("--solver-methods", nargs="+", default=["direct", "gamg", "hypre"], help="solvers: methods")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    parts = {"ladder": ladder, "ranks": ranks, "solvers": solvers,
+    parts = {"ladder": ladder, "ranks": ranks,
+             "solvers": lambda tmp: solvers(tmp, tuple(args.solver_factors), tuple(args.solver_methods)),
              "critical_distance": lambda tmp: critical_distance(tmp, out),
              "p2": lambda tmp: p2(tmp, out, (args.cpu_limit, args.memory_limit), args.p2_set, args.p2_name,
                                   tuple(args.p2_factors))}

@@ -27,5 +27,7 @@ def test_two_ranks_give_the_serial_skin(tmp_path_factory):
         assert b["dimple_depth_mm"] == pytest.approx(a["dimple_depth_mm"], rel=REL)
         for at_b, at_a in zip(b["dimple_depth_at_mm"], a["dimple_depth_at_mm"]):  # the same node (coordinates may be 0)
             np.testing.assert_allclose(at_b, at_a, rtol=REL, atol=1e-12)
+        assert b["dimple_relief_mm"] == pytest.approx(a["dimple_relief_mm"], rel=REL, abs=1e-12)
+        assert b["dimple_relief_at_y_mm"] == pytest.approx(a["dimple_relief_at_y_mm"], rel=REL)
         assert [y for y, _ in b["skin_profile_mm"]] == pytest.approx([y for y, _ in a["skin_profile_mm"]], rel=REL)
         assert [u for _, u in b["skin_profile_mm"]] == pytest.approx([u for _, u in a["skin_profile_mm"]], rel=REL)

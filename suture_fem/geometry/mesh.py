@@ -201,8 +201,8 @@ def describe(tagged: TaggedMesh) -> dict[str, Any]:
     if m.geometry.dim == 3:
         kind = f"{tagged.geometry.kind} (as in 2-D)" if tagged.geometry.cones else "none"
         model = MODEL_3D if tagged.geometry.slab is None else MODEL_SLAB
-        curved = {"cells": CURVED_3D} if out["geometry_degree"] == 2 else {}
-        out["model_3d"] = model | {"cones": kind} | curved
+        cells = {"cells": CURVED_3D} if out["geometry_degree"] == 2 else {}
+        out["model_3d"] = model | {"cones": kind} | cells
     return out
 
 
@@ -237,8 +237,8 @@ def geometry_degree(mesh: Any) -> int:
 def folded_cells(mesh: Any) -> int:
     """The local quadratic triangles or tetrahedra whose Jacobian determinant changes sign (or vanishes) inside them.
 
-    Sampled at :func:`~suture_fem.geometry.curved.fold_points`: a cell whose curved edge bulges past its opposite
-    corner (or face) would integrate with a wrong sign without any error.
+    :func:`~suture_fem.geometry.curved.folded`: a cell whose curved edge bulges past its opposite corner (or face)
+    would integrate with a wrong sign without any error.
     """
     dim = mesh.topology.dim
     return int(np.sum(curved.folded(mesh.geometry.x[:, :dim][compat.geometry_dofs(mesh)])))

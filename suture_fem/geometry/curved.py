@@ -15,15 +15,12 @@ import numpy as np
 
 #: The edges of the reference triangle and tetrahedron in dolfinx's (basix's) order of the P2 mid-side nodes.
 EDGES = {2: ((1, 2), (0, 2), (0, 1)), 3: ((2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1))}
-#: gmsh's element type of the 10-node tetrahedron.
-GMSH_TETRAHEDRON10 = 11
+#: gmsh's element types of the 6-node triangle and the 10-node tetrahedron.
+GMSH_TRIANGLE6, GMSH_TETRAHEDRON10 = 9, 11
 
 
-def fold_points(dim: int) -> list[tuple[float, ...]]:
-    """Where a triangle's Jacobian is sampled: its vertices and edge midpoints, then its centroid (last)."""
-    vertices = [tuple(float(i == k) for i in range(dim)) for k in range(-1, dim)]
-    mids = [tuple((p + q) / 2 for p, q in zip(vertices[a], vertices[b])) for a, b in EDGES[dim]]
-    return [*vertices, *mids, tuple(1.0 / (dim + 1) for _ in range(dim))]
+#: Where a triangle's Jacobian (a quadratic) is sampled: its vertices and edge midpoints, then its centroid (last).
+TRIANGLE_POINTS = ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.5, 0.5), (0.0, 0.5), (0.5, 0.0), (1 / 3, 1 / 3))
 
 
 def _bernstein_cubic() -> tuple[list[tuple[float, ...]], np.ndarray]:
@@ -65,13 +62,13 @@ def jacobian_dets(x: np.ndarray, points: list[tuple[float, ...]] | np.ndarray) -
 def folded(x: np.ndarray) -> np.ndarray:
     """Which quadratic cells (nodes ``x``: (cells, 6 or 10, dim)) have a Jacobian that changes sign or vanishes.
 
-    A triangle: sampled at :func:`fold_points`. A tetrahedron: its cubic's Bernstein coefficients, which bound it
+    A triangle: sampled at :data:`TRIANGLE_POINTS`. A tetrahedron: its cubic's Bernstein coefficients, which bound it
     (the convex-hull property: all of one sign, the Jacobian has that sign everywhere in the cell), so a fold
     between sample points is not missed; a cell with a coefficient of the other sign counts as folded even where
     the cubic itself may stay positive (it is distorted close to folding).
     """
     if x.shape[2] == 2:
-        dets = jacobian_dets(x, fold_points(2))
+        dets = jacobian_dets(x, TRIANGLE_POINTS)
         return np.any(dets * np.sign(dets[-1]) <= 0.0, axis=0)
     coefficients = _TO_BERNSTEIN @ jacobian_dets(x, _CUBIC_POINTS)  # (20, cells)
     sign = np.sign(np.sum(coefficients, axis=0))  # the sign of the cell's volume

@@ -126,10 +126,6 @@ def _write_checked(gmsh: Any, path: Path) -> None:
     commit(tmp, path)
 
 
-#: gmsh's element types of the quadratic cells: the 6-node triangle and the 10-node tetrahedron.
-GMSH_QUADRATIC = (9, 11)
-
-
 def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path: str | Path,
               split_thread: bool = False, split_cones: bool = False) -> dict[str, Any]:
     """Write a scene's mesh as a gmsh .msh file (mm) with a JSON record of its parameters beside it.
@@ -162,7 +158,7 @@ def write_msh(geometry_section: GeometrySection, mesh_section: MeshSection, path
         "units": "mm",
         "nodes": nodes,
         "triangles" if dim == 2 else "tetrahedra": int(cells),
-        "geometry_degree": 2 if set(GMSH_QUADRATIC) & set(types) else 1,
+        "geometry_degree": 2 if {curved.GMSH_TRIANGLE6, curved.GMSH_TETRAHEDRON10} & set(types) else 1,
         "thread_track_split": split_thread,
         **({"cone_surfaces_split": True} if split_cones else {}),
         "cell_tags": CELL_TAGS,

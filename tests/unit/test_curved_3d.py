@@ -156,7 +156,7 @@ def test_a_cell_the_curving_folds_is_straightened_in_gmsh(monkeypatch):
                                  "mesh.size_suture_mm=0.5", "mesh.size_rim_mm=0.25", "mesh.size_far_mm=3.0",
                                  "geometry.margin_far_mm=1.5", "geometry.margin_pull_mm=1.5", "mesh.geometry_degree=2"])
     tagged = meshmod.create_mesh(MPI.COMM_SELF, scene.geometry, scene.mesh)
-    assert len(counts) == 1  # measured: 1 cell straightened (gmsh 4.8)
+    assert len(counts) == 1 and counts[0] >= 1  # measured: 1 cell straightened
     assert meshmod.geometry_degree(tagged.mesh) == 2 and meshmod.folded_cells(tagged.mesh) == 0
 
 

@@ -94,6 +94,9 @@ def test_a_fixed_point_that_does_not_settle_fails_the_step_after_its_solves_unde
     assert model.solves == 2 * fixed_point.FIXED_POINT_SOLVES + 1
     law.start()  # the next step starts under Aitken's factor again
     assert not law.accelerated
+    model.solves = 0  # and goes through both rounds again: Aitken's solves, then Anderson's
+    ok, _, reason = settle([law], model.solve_once, lambda: TOL, None)
+    assert not ok and reason == fixed_point.NOT_SETTLED and model.solves == 2 * fixed_point.FIXED_POINT_SOLVES + 1
 
 
 class Locking(SlipBound):
